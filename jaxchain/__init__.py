@@ -1,0 +1,24 @@
+"""jaxchain: differentiable roller-chain drive simulation in JAX.
+
+Enable float64 yourself (the library never changes global JAX configuration)::
+
+    import jax
+    jax.config.update("jax_enable_x64", True)
+"""
+
+from . import contact as contact
+from ._chain import ChainSpec as ChainSpec
+from ._gap import (
+    gap_contact as gap_contact,
+    nearest_gap as nearest_gap,
+    signed_distance as signed_distance,
+)
+from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
+from ._plot import plot_profiles as plot_profiles
+from ._profile import (
+    ProfileGeometry as ProfileGeometry,
+    ToothProfile as ToothProfile,
+    iso606_limits as iso606_limits,
+)
+
+__version__ = "0.1.0"

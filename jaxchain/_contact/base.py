@@ -1,0 +1,125 @@
+"""Abstract contact laws and the shared hysteresis-damping machinery."""
+
+from __future__ import annotations
+
+import abc
+import math
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike
+
+from .._numerics import is_concrete, safe_pow, smooth_ramp
+
+__all__ = ["AbstractContactLaw", "AbstractHysteresisLaw", "hysteresis_restitution", "check_fields"]
+
+
+def check_fields(module, checks) -> None:
+    """Raise ValueError for the first field whose value (every element, if an array)
+    fails its check. ``checks``: (field name, predicate on a NumPy array, range text)."""
+    for name, ok, rng in checks:
+        v = np.asarray(getattr(module, name), dtype=float)
+        if not np.all(ok(v)):
+            raise ValueError(f"{type(module).__name__}.{name} must be {rng}, got {v}")
+
+
+class AbstractContactLaw(eqx.Module):
+    """A normal contact force law F(δ, δ̇, v⁻) ≥ 0.
+
+    ``depth`` δ [m] > 0 is overlap; ``depth_rate`` δ̇ [m/s] > 0 is approach;
+    ``impact_speed`` v⁻ [m/s] is the approach speed at the onset of the current impact
+    (laws with velocity-ratio damping need it; others ignore it).
+    """
+
+    @abc.abstractmethod
+    def normal_force(
+        self, depth: ArrayLike, depth_rate: ArrayLike, impact_speed: ArrayLike
+    ) -> Array:
+        """Normal force [N], ≥ 0 (never pulls), finite with finite gradients for any input."""
+
+
+class AbstractHysteresisLaw(AbstractContactLaw):
+    """F = K·δᵣⁿ·ramp(1 + χ(e)·δ̇/v⁻), the hysteresis-damping family.
+
+    Concrete laws differ only in the damping factor χ(e). δᵣ = smooth_ramp(δ, width) is
+    the penetration regularization (C¹; exact for |δ| ≥ width, over-reports δ by at most
+    width/4 at δ = 0, force onset at δ = −width). v⁻ is floored smoothly,
+    v⁻ → √(v⁻² + speed_floor²), so resting contact (v⁻ → 0) stays finite. The bracket is
+    clamped at zero by a C¹ ramp of half-width ``clamp_width`` so the force never pulls.
+
+    With F = F_el(δ)·(1 + χ·δ̇/v⁻), m·δ̈ = −F integrates in closed form over a whole
+    impact, whatever F_el is: the coefficient of restitution e* solves
+    1 − χe* = (1 + χ)·exp(−χ(1 + e*)) (see :func:`hysteresis_restitution`).
+
+    Attributes:
+        stiffness: K [N/mⁿ].
+        exponent: n [-] (1.5 for Hertz point contact).
+        restitution: e ∈ (0, 1], the coefficient the law is meant to reproduce.
+        width: penetration regularization half-width [m] (0: none).
+        speed_floor: smallest impact speed used in the damping ratio [m/s].
+        clamp_width: half-width of the no-pull clamp on the bracket [-].
+    """
+
+    stiffness: ArrayLike
+    exponent: ArrayLike = 1.5
+    restitution: ArrayLike = 0.9
+    width: ArrayLike = 1e-7
+    speed_floor: ArrayLike = 1e-3
+    clamp_width: ArrayLike = 0.05
+
+    def __check_init__(self):
+        if not is_concrete(self):
+            return
+        checks = [
+            ("stiffness", lambda v: v > 0, "> 0"),
+            ("exponent", lambda v: (v >= 1.0) & (v <= 3.0), "in [1, 3]"),
+            ("restitution", lambda v: (v > 0.0) & (v <= 1.0), "in (0, 1]"),
+            ("width", lambda v: v >= 0, ">= 0 m"),
+            ("speed_floor", lambda v: v > 0, "> 0 m/s"),
+            ("clamp_width", lambda v: (v >= 0) & (v <= 1), "in [0, 1]"),
+        ]
+        check_fields(self, checks)
+
+    @abc.abstractmethod
+    def damping_factor(self) -> Array:
+        """χ(e) [-] of the law."""
+
+    def elastic_force(self, depth: ArrayLike) -> Array:
+        """K·δᵣⁿ [N]."""
+        return self.stiffness * safe_pow(smooth_ramp(depth, self.width), self.exponent)
+
+    def normal_force(self, depth, depth_rate, impact_speed):
+        v0 = jnp.sqrt(jnp.asarray(impact_speed) ** 2 + self.speed_floor**2)
+        bracket = 1.0 + self.damping_factor() * jnp.asarray(depth_rate) / v0
+        return self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
+
+    def effective_restitution(self) -> float:
+        """Coefficient of restitution this law actually produces in an isolated impact
+        (closed form, independent of K, n and mass; ignores the no-pull clamp)."""
+        return hysteresis_restitution(float(self.damping_factor()))
+
+
+def hysteresis_restitution(chi: float) -> float:
+    """Restitution e* of an impact under F = F_el(δ)·(1 + χ·δ̇/v⁻): the root in (0, 1] of
+    1 − χe* = (1 + χ)·exp(−χ(1 + e*)). Exact for any elastic law F_el(δ) ≥ 0.
+
+    Solved for w = −ln(1 − χe*) ∈ [0, ∞), where the equation reads
+    w + expm1(−w) = χ − ln(1 + χ) (monotone in w; no loss of range as χe* → 1).
+    """
+    if not chi >= 0:
+        raise ValueError(f"damping factor must be >= 0, got {chi}")
+    if chi < 1e-6:
+        return 1.0 - 2.0 * chi / 3.0  # series; error O(χ²) < 1e-12
+    target = chi - math.log1p(chi)
+    lo, hi = 0.0, target + 2.0  # w + expm1(−w) ≥ w − 1
+    for _ in range(300):
+        mid = 0.5 * (lo + hi)
+        if mid + math.expm1(-mid) < target:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-17 * max(hi, 1e-300):
+            break
+    w = 0.5 * (lo + hi)
+    return min(-math.expm1(-w) / chi, 1.0)

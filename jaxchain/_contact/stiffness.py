@@ -1,0 +1,34 @@
+"""Contact stiffness of cylinder pairs from materials and geometry."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike
+
+__all__ = ["hertz_stiffness", "effective_radius"]
+
+
+def effective_radius(radius1: ArrayLike, radius2: ArrayLike, *, internal: bool = False) -> Array:
+    """R* of two cylinders [m]: R₁R₂/(R₁ + R₂) external; R₁R₂/(R₂ − R₁) for a cylinder of
+    radius R₁ inside a hole of radius R₂ > R₁ (internal)."""
+    r1, r2 = jnp.asarray(radius1), jnp.asarray(radius2)
+    return r1 * r2 / ((r2 - r1) if internal else (r1 + r2))
+
+
+def hertz_stiffness(
+    modulus: ArrayLike, radius1: ArrayLike, radius2: ArrayLike, *, internal: bool = False
+) -> Array:
+    """Hertz stiffness K = (4/3)·E*·√R* [N/m^1.5], for use with exponent n = 1.5.
+
+    ``modulus`` is the contact modulus E* (:func:`jaxchain.effective_modulus`). Fine for
+    external (convex/convex) contact, e.g. a roller on a flank. For a near-conformal
+    internal pair (roller in its seat, pin in its bush) R* = R₁R₂/(R₂ − R₁) grows without
+    bound as the clearance closes, so the stiffness swings with the clearance: use
+    :class:`~jaxchain.contact.JohnsonCylinder` there instead.
+    """
+    return (
+        4.0
+        / 3.0
+        * jnp.asarray(modulus)
+        * jnp.sqrt(effective_radius(radius1, radius2, internal=internal))
+    )

@@ -1,0 +1,44 @@
+"""Materials: elastic constants and density."""
+
+from __future__ import annotations
+
+import equinox as eqx
+
+__all__ = ["Material", "STEEL", "effective_modulus"]
+
+
+class Material(eqx.Module):
+    """An isotropic elastic material.
+
+    Attributes:
+        youngs_modulus: Young's modulus E [Pa].
+        poisson_ratio: Poisson's ratio ν [-].
+        density: mass density ρ [kg/m³].
+    """
+
+    youngs_modulus: float = 206e9
+    poisson_ratio: float = 0.3
+    density: float = 7850.0
+
+    def __check_init__(self):
+        from ._numerics import is_concrete
+
+        if not is_concrete(self):
+            return
+        if not self.youngs_modulus > 0:
+            raise ValueError(f"youngs_modulus must be > 0 Pa, got {self.youngs_modulus}")
+        if not -1.0 < self.poisson_ratio < 0.5:
+            raise ValueError(f"poisson_ratio must be in (-1, 0.5), got {self.poisson_ratio}")
+        if not self.density > 0:
+            raise ValueError(f"density must be > 0 kg/m³, got {self.density}")
+
+
+#: Through-hardened chain/sprocket steel (E = 206 GPa, ν = 0.3, ρ = 7850 kg/m³).
+STEEL = Material()
+
+
+def effective_modulus(a: Material, b: Material):
+    """Contact modulus E* with 1/E* = (1 − ν₁²)/E₁ + (1 − ν₂²)/E₂ [Pa]."""
+    return 1.0 / (
+        (1 - a.poisson_ratio**2) / a.youngs_modulus + (1 - b.poisson_ratio**2) / b.youngs_modulus
+    )

@@ -1,0 +1,24 @@
+"""Contact force laws: normal (hysteresis-damped, conformal cylinders) and friction.
+
+law = jc.contact.LankaraniNikravesh(stiffness=K, exponent=1.5, restitution=e)
+f = law.normal_force(depth, depth_rate, impact_speed)
+"""
+
+from ._contact.base import (
+    AbstractContactLaw as AbstractContactLaw,
+    AbstractHysteresisLaw as AbstractHysteresisLaw,
+    hysteresis_restitution as hysteresis_restitution,
+)
+from ._contact.flores import Flores as Flores
+from ._contact.friction import CoulombFriction as CoulombFriction
+from ._contact.gonthier import Gonthier as Gonthier
+from ._contact.hunt_crossley import HuntCrossley as HuntCrossley
+from ._contact.johnson import (
+    JohnsonCylinder as JohnsonCylinder,
+    johnson_dimensionless_force as johnson_dimensionless_force,
+)
+from ._contact.lankarani_nikravesh import LankaraniNikravesh as LankaraniNikravesh
+from ._contact.stiffness import (
+    effective_radius as effective_radius,
+    hertz_stiffness as hertz_stiffness,
+)

@@ -1,0 +1,1 @@
+"""Design-optimization runs for jaxchain (``python -m optimize``)."""
