@@ -6,8 +6,9 @@ Enable float64 yourself (the library never changes global JAX configuration)::
     jax.config.update("jax_enable_x64", True)
 """
 
-from . import contact as contact
+from . import contact as contact, scenes as scenes
 from ._chain import ChainSpec as ChainSpec
+from ._dynamics import DriveState as DriveState, energy as energy, vector_field as vector_field
 from ._gap import (
     gap_contact as gap_contact,
     nearest_gap as nearest_gap,
@@ -15,10 +16,19 @@ from ._gap import (
 )
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
 from ._plot import plot_profiles as plot_profiles
+from ._plot_drive import (
+    animate as animate,
+    plot_forces as plot_forces,
+    plot_snapshot as plot_snapshot,
+    plot_speed as plot_speed,
+    plot_tensions as plot_tensions,
+)
 from ._profile import (
     ProfileGeometry as ProfileGeometry,
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,
 )
+from ._scene import Scene as Scene, Sprocket as Sprocket
+from ._simulate import Result as Result, Solution as Solution, simulate as simulate
 
 __version__ = "0.1.0"

@@ -1,0 +1,230 @@
+"""Speed of the dynamics: per scene and fidelity, and the fidelity comparison.
+
+    python -m benchmarks.dynamics            # full study (~15 min on 2 cores)
+    python -m benchmarks.dynamics --quick    # smoke run (CI-sized)
+
+Writes ``benchmarks/results/dynamics.json`` and ``dynamics.png``. Every ratio printed is
+measured in this one run (machines are shared and noisy: compare ratios, not seconds).
+
+Measured per case:
+* wall time per simulated driver revolution (warm, i.e. compile excluded), steps, µs/step;
+* µs per vector-field call in a jitted ``fori_loop`` (no dispatch overhead), and the ratio
+  µs/step ÷ (stages × µs per call) — Tsit5 makes 6 new evaluations per step, plus one for
+  the per-step peak-force record;
+* compile time of ``simulate`` (first call minus a warm call) for 50/100/200 links;
+* lumped vs clearance on the same drive: peak roller force, span tension, cost ratio.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+from pathlib import Path
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+import jaxchain as jc  # noqa: E402
+from jaxchain._dynamics import initial_state, vector_field  # noqa: E402
+
+OUT = Path(__file__).parent / "results"
+STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
+
+
+def vf_time(scene, n=2000) -> float:
+    """µs per vector-field call inside a jitted loop."""
+    y0 = initial_state(scene)
+
+    @jax.jit
+    def run(y, sc):
+        def body(i, y):
+            d = vector_field(i * 1e-9, y, sc)
+            return jax.tree_util.tree_map(lambda a, b: a + 1e-15 * b, y, d)
+
+        return jax.lax.fori_loop(0, n, body, y)
+
+    jax.block_until_ready(run(y0, scene))
+    t = time.perf_counter()
+    jax.block_until_ready(run(y0, scene))
+    return (time.perf_counter() - t) / n * 1e6
+
+
+def timed_run(scene, t1, **kw):
+    t = time.perf_counter()
+    sol = jc.simulate(scene, t1, throw=False, **kw)
+    jax.block_until_ready(sol.peak_contact_force)
+    return sol, time.perf_counter() - t
+
+
+def case(name, scene, t1, rev):
+    """Cold and warm run over t1; per-revolution figures scaled by rev/t1."""
+    _, cold = timed_run(scene, t1, n_save=51)
+    sol, warm = timed_run(scene, t1, n_save=51)
+    steps = int(sol.stats["num_steps"])
+    us_step = warm / max(steps, 1) * 1e6
+    vf = vf_time(scene)
+    row = {
+        "case": name,
+        "bodies": scene.n_bodies,
+        "rollers": scene.n_rollers,
+        "simulated_s": t1,
+        "steps": steps,
+        "wall_warm_s": warm,
+        "compile_s": cold - warm,
+        "wall_per_rev_s": warm * rev / t1,
+        "us_per_step": us_step,
+        "us_per_vf_call": vf,
+        "step_over_stages_x_vf": us_step / (STAGES * vf),
+        "peak_force_N": float(sol.peak_contact_force),
+        "result": sol.message or "successful",
+    }
+    print(
+        f"  {name:32s} {steps:7d} steps  {us_step:7.0f} µs/step  vf {vf:6.1f} µs  "
+        f"ratio {row['step_over_stages_x_vf']:.2f}  {row['wall_per_rev_s']:7.1f} s/rev  "
+        f"compile {row['compile_s']:.1f} s"
+    )
+    return row, sol
+
+
+def compile_times(fidelities, links=(50, 100, 200)):
+    rows = []
+    for fid in fidelities:
+        for n in links:
+            sc = jc.scenes.drive("08B", teeth=(18, 36), n_links=n, fidelity=fid, settle=False)
+            t1 = 20e-6
+            _, cold = timed_run(sc, t1, n_save=3)
+            _, warm = timed_run(sc, t1, n_save=3)
+            rows.append({"fidelity": fid, "links": n, "compile_s": cold - warm})
+            print(f"  compile {fid:10s} {n:4d} links: {cold - warm:6.1f} s")
+    return rows
+
+
+def fidelity_comparison(t_frac, n_links):
+    """Same drive, lumped vs clearance (rollers on joints, and fixed to the bushes)."""
+    rev = 60 / 1000
+    out = {}
+    sols = {}
+    for fid, rob in (("lumped", "joint"), ("clearance", "lumped"), ("clearance", "joint")):
+        sc = jc.scenes.drive(
+            "08B",
+            teeth=(18, 36),
+            n_links=n_links,
+            speed_rpm=1000,
+            load_torque=20.0,
+            pretension=200.0,
+            fidelity=fid,
+            rollers_on_bush=rob,
+        )
+        key = fid if fid == "lumped" else f"clearance/rollers-{rob}"
+        row, sol = case(f"drive {n_links} links {key}", sc, t_frac * rev, rev)
+        tension = np.asarray(sol.link_tension)
+        row["mean_max_tension_N"] = float(tension.max(axis=1).mean())
+        out[key] = row
+        sols[key] = sol
+    base = out["lumped"]
+    for key, row in out.items():
+        row["peak_vs_lumped"] = row["peak_force_N"] / base["peak_force_N"] - 1
+        row["tension_vs_lumped"] = row["mean_max_tension_N"] / base["mean_max_tension_N"] - 1
+        row["cost_vs_lumped"] = row["wall_per_rev_s"] / base["wall_per_rev_s"]
+        print(
+            f"  {key:28s} peak {row['peak_force_N']:7.0f} N ({row['peak_vs_lumped']:+.1%})  "
+            f"max tension {row['mean_max_tension_N']:7.0f} N ({row['tension_vs_lumped']:+.1%})  "
+            f"cost ×{row['cost_vs_lumped']:.1f}"
+        )
+    return out, sols
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    quick = args.quick
+    rev = 60 / 1000
+    results = {
+        "machine": {"platform": platform.platform(), "cpu_count": __import__("os").cpu_count()},
+        "versions": {"jax": jax.__version__, "jaxchain": jc.__version__},
+        "quick": quick,
+    }
+    print("scenes (1000 rpm, 08B, default tolerances rtol 1e-6 / atol 1e-9):")
+    eng = {}
+    for fid in ("lumped", "clearance"):
+        sc = jc.scenes.engagement("08B", 18, speed_rpm=1000, n_entry=8, fidelity=fid)
+        period = rev / 18
+        row, _ = case(f"engagement z18 {fid}", sc, (1 if quick else 4) * period, rev)
+        eng[fid] = row
+    results["engagement"] = eng
+    print("compile time of simulate against link count:")
+    results["compile"] = compile_times(
+        ("lumped",) if quick else ("lumped", "clearance"), (50, 100) if quick else (50, 100, 200)
+    )
+    print("lumped vs clearance on one drive:")
+    comp, sols = fidelity_comparison(0.01 if quick else 0.1, 50 if quick else 100)
+    results["fidelity"] = comp
+    comp_rows = results["compile"]
+    for fid in {r["fidelity"] for r in comp_rows}:
+        c = {r["links"]: r["compile_s"] for r in comp_rows if r["fidelity"] == fid}
+        if 200 in c and 50 in c:
+            results.setdefault("targets", {})[f"compile_growth_50_to_200_{fid}"] = c[200] / c[50]
+    ratios = [r["step_over_stages_x_vf"] for r in list(eng.values()) + list(comp.values())]
+    results.setdefault("targets", {})["max_step_over_stages_x_vf"] = max(ratios)
+    if "clearance/rollers-joint" in comp:
+        results["targets"]["clearance_drive_s_per_rev_rollers_joint"] = comp[
+            "clearance/rollers-joint"
+        ]["wall_per_rev_s"]
+        results["targets"]["clearance_drive_s_per_rev_rollers_lumped"] = comp[
+            "clearance/rollers-lumped"
+        ]["wall_per_rev_s"]
+    print("targets:", json.dumps(results["targets"], indent=1))
+    (args.out / "dynamics.json").write_text(json.dumps(results, indent=1))
+    _chart(results, sols, args.out / "dynamics.png")
+    print(f"wrote {args.out / 'dynamics.json'} and dynamics.png")
+
+
+def _chart(results, sols, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4))
+    comp = results["compile"]
+    for fid in sorted({r["fidelity"] for r in comp}):
+        rows = [r for r in comp if r["fidelity"] == fid]
+        ax[0].plot([r["links"] for r in rows], [r["compile_s"] for r in rows], "o-", label=fid)
+    ax[0].set_xlabel("links")
+    ax[0].set_ylabel("compile time of simulate [s]")
+    ax[0].set_ylim(bottom=0)
+    ax[0].legend()
+    ax[0].set_title("compile time vs model size")
+    rows = list(results["engagement"].values()) + list(results["fidelity"].values())
+    names = [r["case"].replace("drive ", "").replace("engagement ", "eng. ") for r in rows]
+    ax[1].barh(names, [r["wall_per_rev_s"] for r in rows])
+    ax[1].set_xlabel("wall time per driver revolution at 1000 rpm [s]")
+    ax[1].set_title("cost per revolution (warm)")
+    for key, sol in sols.items():
+        ax[2].plot(
+            np.asarray(sol.ts) * 1e3,
+            np.asarray(jnp.max(sol.roller_sprocket_force, axis=1)),
+            label=key,
+        )
+    ax[2].set_xlabel("time [ms]")
+    ax[2].set_ylabel("largest roller–sprocket force [N]")
+    ax[2].set_title("same drive, three fidelities")
+    ax[2].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,206 @@
+"""Equations of motion: M q̈ = forces(q, q̇, t), diagonal M, one pure vector field.
+
+No Python loop runs over links, rollers or contacts: each group of force elements is
+evaluated by one vectorized call and scattered onto bodies with segment sums. The only
+Python loops are over the (static, few) element groups and sprockets.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from ._gap import gap_contact
+from ._numerics import cross2, safe_norm, safe_normalize
+from ._scene import LinkSprings, Scene
+
+__all__ = ["DriveState", "initial_state", "vector_field", "outputs", "Forces", "energy"]
+
+
+class DriveState(NamedTuple):
+    """ODE state. q, v: (N, 3) bodies' (x, y, φ) and rates; theta, omega: (S,) sprockets."""
+
+    q: Float[Array, "N 3"]
+    v: Float[Array, "N 3"]
+    theta: Float[Array, " S"]
+    omega: Float[Array, " S"]
+
+
+class Forces(NamedTuple):
+    """Everything the vector field computes, for outputs and diagnostics."""
+
+    body: Float[Array, "N 3"]  # total force (fx, fy) and torque on each body
+    roller_normal: Float[Array, "S R"]  # roller/tooth normal force per sprocket [N]
+    sprocket_torque: Float[Array, " S"]  # torque of the chain on each sprocket [N·m]
+    sprocket_force: Float[Array, "S 2"]  # force of the chain on each sprocket's axis [N]
+    element_tension: Float[Array, " E"]  # tensions of tension-carrying elements [N]
+
+
+def initial_state(scene: Scene) -> DriveState:
+    return DriveState(
+        q=scene.q0,
+        v=scene.v0,
+        theta=jnp.stack([s.angle0 for s in scene.sprockets]),
+        omega=jnp.stack([s.speed for s in scene.sprockets]),
+    )
+
+
+def _rot(phi):
+    return jnp.cos(phi), jnp.sin(phi)
+
+
+def _points(q, v, body, offset):
+    """World position and velocity of body-fixed points."""
+    c, s = _rot(q[body, 2])
+    arm = jnp.stack([c * offset[:, 0] - s * offset[:, 1], s * offset[:, 0] + c * offset[:, 1]], -1)
+    w = v[body, 2:3]
+    x = q[body, :2] + arm
+    xd = v[body, :2] + w * jnp.stack([-arm[:, 1], arm[:, 0]], -1)
+    return x, xd, arm
+
+
+def _scatter(n, body, arm, f):
+    """Generalized forces (fx, fy, τ) of point forces f applied at arms, summed per body."""
+    gen = jnp.concatenate([f, cross2(arm, f)[:, None]], axis=-1)
+    return jax.ops.segment_sum(gen, body, num_segments=n)
+
+
+def forces(t, y: DriveState, scene: Scene) -> Forces:
+    n = scene.n_bodies
+    q, v = y.q, y.v
+    total = jnp.zeros((n, 3), q.dtype)
+    tensions = []
+    for grp in scene.pairs:
+        xa, va, arm_a = _points(q, v, grp.a, grp.ra)
+        xb, vb, arm_b = _points(q, v, grp.b, grp.rb)
+        d = xb - xa
+        length = safe_norm(d)
+        u = safe_normalize(d, jnp.array([1.0, 0.0], dtype=q.dtype))
+        rate = jnp.sum(u * (vb - va), axis=-1)
+        tension = grp.element.tension(length, rate, scene.impact_speed)
+        f = tension[:, None] * u
+        total = total + _scatter(n, grp.a, arm_a, f) + _scatter(n, grp.b, arm_b, -f)
+        if grp.carries_tension:
+            tensions.append(tension)
+
+    if scene.anchors is not None:
+        an = scene.anchors
+        x, xd = q[an.body, :2], v[an.body, :2]
+        guide = an.origin + (an.speed * t)[:, None] * an.direction
+        rel = guide - x
+        s = jnp.sum(rel * an.direction, -1)
+        perp = rel - s[:, None] * an.direction
+        relv = an.speed[:, None] * an.direction - xd
+        f = (an.tension + an.stiffness * s)[:, None] * an.direction
+        f = f + an.stiffness[:, None] * perp + an.damping[:, None] * relv
+        total = total.at[an.body, :2].add(f)
+
+    # rollers against every sprocket (each roller sees its nearest gap: O(1) per pair)
+    xr, vr, arm_r = _points(q, v, scene.roller_body, scene.roller_offset)
+    r = scene.roller_radius
+    normals, torques, pulls = [], [], []
+    roller_f = jnp.zeros_like(xr)
+    for k, spr in enumerate(scene.sprockets):
+        c, s = jnp.cos(y.theta[k]), jnp.sin(y.theta[k])
+        rel = xr - spr.centre
+        local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+        depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
+        nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
+        xc = xr - r * nrm  # contact point on the roller surface
+        arm_s = xc - spr.centre
+        vsurf = y.omega[k] * jnp.stack([-arm_s[:, 1], arm_s[:, 0]], -1)
+        vrel = vr - vsurf
+        approach = -jnp.sum(nrm * vrel, -1)
+        fn = scene.roller_law.normal_force(depth, approach, scene.impact_speed)
+        f = fn[:, None] * nrm
+        if scene.friction is not None:
+            tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
+            slip = jnp.sum(tang * vrel, -1)
+            f = f + scene.friction.force(fn, slip)[:, None] * tang
+        roller_f = roller_f + f
+        normals.append(fn)
+        torques.append(jnp.sum(cross2(arm_s, -f)))
+        pulls.append(-jnp.sum(f, axis=0))
+    total = total + _scatter(n, scene.roller_body, arm_r, roller_f)
+    total = total.at[:, :2].add(scene.mass[:, None] * scene.gravity)
+    return Forces(
+        body=total,
+        roller_normal=jnp.stack(normals),
+        sprocket_torque=jnp.stack(torques),
+        sprocket_force=jnp.stack(pulls),
+        element_tension=jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype),
+    )
+
+
+def vector_field(t, y: DriveState, scene: Scene) -> DriveState:
+    """dy/dt: the equations of motion of the drive (pure; diffrax's ``ODETerm`` target)."""
+    fr = forces(t, y, scene)
+    inv = jnp.stack([1 / scene.mass, 1 / scene.mass, 1 / scene.inertia], -1)
+    acc = fr.body * inv
+    dtheta, domega = [], []
+    for k, spr in enumerate(scene.sprockets):
+        if spr.driven:
+            dtheta.append(y.omega[k])
+            domega.append((fr.sprocket_torque[k] - spr.load(t)) / spr.inertia)
+        else:  # driver: prescribed constant speed
+            dtheta.append(spr.speed)
+            domega.append(jnp.zeros_like(spr.speed))
+    return DriveState(q=y.v, v=acc, theta=jnp.stack(dtheta), omega=jnp.stack(domega))
+
+
+def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
+    """Named quantities at one instant (what ``simulate`` saves)."""
+    fr = forces(t, y, scene)
+    xr, vr, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+    return {
+        "roller_position": xr,
+        "roller_velocity": vr,
+        "roller_sprocket_force": jnp.sum(fr.roller_normal, axis=0),
+        "link_tension": scene.link_weights @ fr.element_tension,
+        "sprocket_speed": y.omega,
+        "sprocket_angle": y.theta,
+        "sprocket_torque": fr.sprocket_torque,
+    }
+
+
+def _potential(law, depth, n_nodes: int = 24):
+    """∫ elastic force d(depth) from the onset (−width) to ``depth`` [J] (Gauss–Legendre)."""
+    x, w = np.polynomial.legendre.leggauss(n_nodes)
+    lo = -law.width
+    hi = jnp.maximum(depth, lo)
+    half = 0.5 * (hi - lo)
+    pts = lo + half[..., None] * (x + 1.0)
+    return half * jnp.sum(w * law.elastic_force(pts), axis=-1)
+
+
+def energy(t, y: DriveState, scene: Scene) -> dict[str, Array]:
+    """Mechanical energy [J]: kinetic (chain bodies and driven sprockets), elastic (link
+    springs, joint contacts, roller/tooth contacts) and the anchors' guide springs."""
+    del t
+    inertia = jnp.stack([scene.mass, scene.mass, scene.inertia], -1)
+    kinetic = 0.5 * jnp.sum(inertia * y.v**2)
+    for k, spr in enumerate(scene.sprockets):
+        if spr.driven:
+            kinetic = kinetic + 0.5 * spr.inertia * y.omega[k] ** 2
+    elastic = jnp.zeros((), y.q.dtype)
+    for grp in scene.pairs:
+        xa, _, _ = _points(y.q, y.v, grp.a, grp.ra)
+        xb, _, _ = _points(y.q, y.v, grp.b, grp.rb)
+        length = safe_norm(xb - xa)
+        el = grp.element
+        if isinstance(el, LinkSprings):
+            elastic = elastic + jnp.sum(0.5 * el.stiffness * (length - el.rest_length) ** 2)
+        else:
+            elastic = elastic + jnp.sum(_potential(el.law, length - el.clearance))
+    xr, _, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+    for k, spr in enumerate(scene.sprockets):
+        c, s = jnp.cos(y.theta[k]), jnp.sin(y.theta[k])
+        rel = xr - spr.centre
+        local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+        depth, _ = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
+        elastic = elastic + jnp.sum(_potential(scene.roller_law, depth))
+    return {"kinetic": kinetic, "elastic": elastic}

@@ -1,0 +1,209 @@
+"""A chain-drive scene is data: bodies, force elements, sprockets, boundary conditions.
+
+Array leaves are what can be differentiated (geometry, masses, stiffnesses, speeds);
+index arrays are integer leaves (never differentiated); counts and kinds are static.
+
+Bodies of the chain are planar rigid bodies with state (x, y, φ): links in the
+``"clearance"`` fidelity, rollers (point masses; their φ carries no torque) in both.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+from ._contact.base import AbstractContactLaw
+from ._contact.friction import CoulombFriction
+from ._numerics import is_concrete
+from ._profile import ToothProfile
+
+__all__ = [
+    "Sprocket",
+    "LinkSprings",
+    "ClearanceJoints",
+    "PairGroup",
+    "Anchors",
+    "Scene",
+]
+
+
+class Sprocket(eqx.Module):
+    """A sprocket: tooth profile, axis position, and how it turns.
+
+    Attributes:
+        profile: its tooth profile (teeth, pitch, gap form).
+        centre: axis position (2,) [m], world frame.
+        speed: driver: prescribed angular speed [rad/s] (positive counter-clockwise);
+            driven: initial angular speed.
+        inertia: polar moment of inertia [kg·m²] (driven sprockets).
+        load_torque: torque resisting the rotation [N·m] (driven sprockets; positive
+            opposes positive speed).
+        angle0: rotation angle at t = 0 [rad]: gap k centred at angle0 + 2πk/z.
+        load_ramp: the load torque rises smoothly (C¹) from 0 to ``load_torque`` over
+            this time [s] (0: applied at once).
+        driven: False for a driver (speed prescribed), True for a free sprocket
+            (static).
+    """
+
+    profile: ToothProfile
+    centre: Float[Array, 2]
+    speed: Float[Array, ""]
+    inertia: Float[Array, ""]
+    load_torque: Float[Array, ""]
+    angle0: Float[Array, ""]
+    load_ramp: Float[Array, ""]
+    driven: bool = eqx.field(static=True)
+
+    def __init__(
+        self,
+        profile,
+        centre,
+        speed,
+        *,
+        inertia=1.0,
+        load_torque=0.0,
+        angle0=0.0,
+        load_ramp=0.0,
+        driven=False,
+    ):
+        self.profile = profile
+        self.centre = jnp.asarray(centre, dtype=float)
+        self.speed = jnp.asarray(speed, dtype=float)
+        self.inertia = jnp.asarray(inertia, dtype=float)
+        self.load_torque = jnp.asarray(load_torque, dtype=float)
+        self.angle0 = jnp.asarray(angle0, dtype=float)
+        self.load_ramp = jnp.asarray(load_ramp, dtype=float)
+        self.driven = bool(driven)
+
+    def load(self, t):
+        """Load torque at time t [N·m] (smoothstep ramp over ``load_ramp``)."""
+        ramp = self.load_ramp
+        x = jnp.clip(t / jnp.where(ramp > 0, ramp, 1.0), 0.0, 1.0)
+        return self.load_torque * jnp.where(ramp > 0, x * x * (3 - 2 * x), 1.0)
+
+    def __check_init__(self):
+        if is_concrete(self) and self.driven and not float(self.inertia) > 0:
+            raise ValueError(f"a driven sprocket needs inertia > 0 kg·m², got {self.inertia}")
+
+
+class LinkSprings(eqx.Module):
+    """Bilateral spring-dampers (the elastic links of the lumped chain).
+
+    Tension T = k·(ℓ − ℓ₀) + c·ℓ̇ [N] (> 0 pulls the two points together).
+    """
+
+    stiffness: Float[Array, ...]
+    damping: Float[Array, ...]
+    rest_length: Float[Array, ...]
+
+    def tension(self, length, rate, impact_speed):
+        del impact_speed
+        return self.stiffness * (length - self.rest_length) + self.damping * rate
+
+
+class ClearanceJoints(eqx.Module):
+    """Revolute clearance joints: a pin (point a) inside a hole (point b).
+
+    The eccentricity ℓ = |x_b − x_a| is the pin's offset from the hole centre; contact when
+    ℓ exceeds the radial clearance, with ``law`` (e.g. Johnson's conformal law, whose
+    ``clearance`` field is the radial clearance). Tension T = law(ℓ − c, ℓ̇) ≥ 0.
+    """
+
+    law: AbstractContactLaw
+    clearance: Float[Array, ""]
+
+    def tension(self, length, rate, impact_speed):
+        return self.law.normal_force(length - self.clearance, rate, impact_speed)
+
+
+class PairGroup(eqx.Module):
+    """Force elements between a point on body ``a`` and a point on body ``b``.
+
+    Attributes:
+        a, b: body indices (P,).
+        ra, rb: the points in the bodies' own frames (P, 2) [m].
+        element: the force law (LinkSprings or ClearanceJoints), fields scalar or (P,).
+        carries_tension: whether these elements transmit the chain's tension (links and
+            pin/bush joints), reported as link tension; False for bush/roller joints.
+    """
+
+    a: Int[Array, " P"]
+    b: Int[Array, " P"]
+    ra: Float[Array, "P 2"]
+    rb: Float[Array, "P 2"]
+    element: LinkSprings | ClearanceJoints
+    carries_tension: bool = eqx.field(static=True, default=True)
+
+
+class Anchors(eqx.Module):
+    """Tension anchors holding the free ends of an open strand.
+
+    Each anchored body is pulled along the unit direction ``direction`` (pointing away
+    from the sprocket) by ``tension`` plus a soft spring toward a guide point that moves
+    at ``speed`` along that direction (the chain's mean speed there), and is held on the
+    span's line by the same spring across it — a span end running on a guide.
+    """
+
+    body: Int[Array, " A"]
+    origin: Float[Array, "A 2"]
+    direction: Float[Array, "A 2"]
+    speed: Float[Array, " A"]
+    tension: Float[Array, " A"]
+    stiffness: Float[Array, " A"]
+    damping: Float[Array, " A"]
+
+
+class Scene(eqx.Module):
+    """Everything the vector field needs. Built by :mod:`jaxchain.scenes`.
+
+    Attributes:
+        mass: (N,) body masses [kg].
+        inertia: (N,) body polar inertias [kg·m²].
+        pairs: groups of two-point force elements.
+        roller_body: (R,) body carrying each roller's centre.
+        roller_offset: (R, 2) roller centre in that body's frame [m].
+        roller_law: roller/tooth normal contact law.
+        friction: roller/tooth friction or None.
+        sprockets: the sprockets (static count).
+        anchors: tension anchors of an open strand, or None.
+        impact_speed: reference impact speed of the history-free contact damping [m/s]
+            (a law with restitution e gives e at this impact speed; see docs).
+        q0, v0: (N, 3) initial positions (x, y, φ) and velocities.
+        link_weights: (n_links, n_tension_elements) maps element tensions to links.
+        fidelity: "lumped" or "clearance" (static).
+        gravity: (2,) [m/s²].
+    """
+
+    mass: Float[Array, " N"]
+    inertia: Float[Array, " N"]
+    pairs: tuple[PairGroup, ...]
+    roller_body: Int[Array, " R"]
+    roller_offset: Float[Array, "R 2"]
+    roller_law: AbstractContactLaw
+    friction: CoulombFriction | None
+    sprockets: tuple[Sprocket, ...]
+    anchors: Anchors | None
+    impact_speed: Float[Array, ""]
+    q0: Float[Array, "N 3"]
+    v0: Float[Array, "N 3"]
+    link_weights: Float[Array, "L E"]
+    gravity: Float[Array, 2]
+    fidelity: str = eqx.field(static=True)
+
+    @property
+    def n_bodies(self) -> int:
+        return int(np.shape(self.mass)[0])
+
+    @property
+    def n_rollers(self) -> int:
+        return int(np.shape(self.roller_body)[0])
+
+    @property
+    def n_links(self) -> int:
+        return int(np.shape(self.link_weights)[0])
+
+    @property
+    def roller_radius(self):
+        return self.sprockets[0].profile.roller_radius

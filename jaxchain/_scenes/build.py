@@ -1,0 +1,261 @@
+"""Turn an ordered list of roller centres into chain bodies and force elements.
+
+``"lumped"``: each roller is a point mass carrying half of each adjacent link, joined to
+its neighbours by elastic links (spring-dampers of rest length p).
+
+``"clearance"``: the source paper's model. Rigid roller links (inner plates + bushes) and
+pin links (outer plates + pins), 3 DOF each, alternate along the chain; every articulation
+is a pin/bush revolute clearance joint, and each roller is a body of its own on its bush,
+held by a second (bush/roller) clearance joint. Both joints use Johnson's conformal law.
+With ``rollers="lumped"`` the roller is fixed to its bush instead (its mass and inertia
+added to the roller link): the cheaper variant, compared in ``benchmarks/``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, NamedTuple
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._chain import ChainSpec
+from .._contact.base import AbstractContactLaw
+from .._contact.johnson import JohnsonCylinder
+from .._materials import STEEL, Material, effective_modulus
+from .._scene import ClearanceJoints, LinkSprings, PairGroup
+
+__all__ = [
+    "ChainBodies",
+    "chain_bodies",
+    "joint_law",
+    "roller_law",
+    "link_stiffness",
+    "johnson_deflection",
+]
+
+
+class ChainBodies(NamedTuple):
+    mass: np.ndarray
+    inertia: np.ndarray
+    pairs: tuple[PairGroup, ...]
+    roller_body: np.ndarray
+    roller_offset: np.ndarray
+    q0: np.ndarray
+    v0: np.ndarray
+    link_weights: np.ndarray
+
+
+def johnson_deflection(force: float, clearance: float, length: float, modulus: float) -> float:
+    """Johnson's δ(F) = F/(πLE*)·[ln(4πLE*ΔR/F) − 1] [m] (explicit direction)."""
+    if force <= 0:
+        return 0.0
+    s = force / (math.pi * length * modulus * clearance)
+    return clearance * s * (math.log(4 / s) - 1)
+
+
+def joint_law(
+    chain: ChainSpec,
+    which: Literal["pin", "roller"],
+    restitution: float,
+    material: Material = STEEL,
+) -> JohnsonCylinder:
+    """Johnson's conformal law for the pin/bush (``"pin"``) or bush/roller pair."""
+    estar = effective_modulus(material, material)
+    if which == "pin":
+        clearance, length = chain.pin_clearance, chain.inner_width + 2 * chain.plate_thickness
+    else:
+        clearance, length = chain.roller_clearance, 0.95 * chain.inner_width
+    return JohnsonCylinder(
+        clearance=jnp.asarray(clearance),
+        length=jnp.asarray(length),
+        modulus=jnp.asarray(estar),
+        restitution=jnp.asarray(restitution),
+    )
+
+
+def roller_law(chain: ChainSpec, restitution: float, material: Material = STEEL) -> JohnsonCylinder:
+    """Default roller/tooth law: Johnson's cylinder law with a fixed effective clearance,
+    the ISO 606 mid seat clearance of this chain (0.005·d1 + 0.0345·∛d1, independent of
+    z and of the profile being designed, so the law never changes with the design).
+
+    One law over the whole outline keeps the force continuous across the seat/flank
+    junction. Johnson's internal law is exact for the (conformal) seat; for the convex
+    flank the line-contact approach has the same F·[ln(C/F) − 1] form (Johnson §5.6) with
+    a different constant C, so the error there is logarithmic, not a stiffness that
+    swings with the clearance as Hertz δ^1.5 with R* = r·ri/(ri − r) would.
+    """
+    d1 = chain.roller_diameter
+    clearance = 0.005 * d1 + 0.0345e-3 * (1e3 * d1) ** (1 / 3)
+    return JohnsonCylinder(
+        clearance=jnp.asarray(clearance),
+        length=jnp.asarray(0.95 * chain.inner_width),
+        modulus=jnp.asarray(effective_modulus(material, material)),
+        restitution=jnp.asarray(restitution),
+    )
+
+
+def link_stiffness(chain: ChainSpec, load: float, material: Material = STEEL) -> float:
+    """Axial stiffness of one lumped link [N/m]: its plates in series with two pin/bush
+    contacts (Johnson's tangent stiffness at ``load``, taken ≥ 5 % of the tensile
+    strength so a slack chain is not modelled as infinitely soft)."""
+    e = material.youngs_modulus
+    hole = chain.bush_diameter
+    k_plates = e * 2 * chain.plate_thickness * (chain.plate_height - hole) / chain.pitch
+    law = joint_law(chain, "pin", 1.0, material)
+    load = max(load, 0.05 * chain.tensile_strength)
+    length, modulus = float(law.length), float(law.modulus)
+    s = load / (math.pi * length * modulus * float(law.clearance))
+    k_joint = math.pi * length * modulus / (math.log(4 / s) - 2)  # dF/dδ = πLE*/g'(s)
+    return 1.0 / (1.0 / k_plates + 2.0 / k_joint)
+
+
+def _link_frames(rollers: np.ndarray, vel: np.ndarray, closed: bool):
+    nxt = np.roll(rollers, -1, axis=0) if closed else rollers[1:]
+    nxv = np.roll(vel, -1, axis=0) if closed else vel[1:]
+    cur, cuv = (rollers, vel) if closed else (rollers[:-1], vel[:-1])
+    d = nxt - cur
+    mid = 0.5 * (cur + nxt)
+    phi = np.arctan2(d[:, 1], d[:, 0])
+    vmid = 0.5 * (cuv + nxv)
+    omega = np.cross(d, nxv - cuv) / np.sum(d * d, axis=1)
+    return np.column_stack([mid, phi]), np.column_stack([vmid, omega])
+
+
+def _tension_weights(n_links: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w = np.zeros((n_links, len(a)))
+    for e, (i, j) in enumerate(zip(a, b, strict=True)):
+        w[i, e] += 1.0
+        w[j, e] += 1.0
+    return w / np.maximum(w.sum(axis=1, keepdims=True), 1.0)
+
+
+def chain_bodies(
+    chain: ChainSpec,
+    rollers: np.ndarray,
+    velocities: np.ndarray,
+    *,
+    closed: bool,
+    fidelity: Literal["lumped", "clearance"],
+    restitution: float,
+    rollers_on_bush: Literal["joint", "lumped"] = "joint",
+    link_load: float = 0.0,
+    damping_ratio: float = 0.05,
+    pin_law: AbstractContactLaw | None = None,
+    bush_law: AbstractContactLaw | None = None,
+) -> ChainBodies:
+    """Bodies and force elements of a chain whose roller centres are ``rollers`` (n, 2),
+    ordered along the chain, moving at ``velocities`` (n, 2). See the module docstring."""
+    rollers = np.asarray(rollers, dtype=float)
+    velocities = np.asarray(velocities, dtype=float)
+    n = len(rollers)
+    p = chain.pitch
+    n_links = n if closed else n - 1
+    idx = np.arange(n_links)
+    nxt = (idx + 1) % n
+    zero2 = np.zeros((n_links, 2))
+    if fidelity == "lumped":
+        m = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
+        mass = np.full(n, m)
+        if not closed:  # end rollers carry only half of one link
+            mass[[0, -1]] = chain.roller_mass + 0.25 * (
+                chain.roller_link_mass + chain.pin_link_mass
+            )
+        k = link_stiffness(chain, link_load)
+        c = 2 * damping_ratio * math.sqrt(k * m / 2)
+        springs = PairGroup(
+            a=jnp.asarray(idx),
+            b=jnp.asarray(nxt),
+            ra=jnp.asarray(zero2),
+            rb=jnp.asarray(zero2),
+            element=LinkSprings(
+                stiffness=jnp.asarray(k), damping=jnp.asarray(c), rest_length=jnp.asarray(p)
+            ),
+        )
+        q0 = np.column_stack([rollers, np.zeros(n)])
+        v0 = np.column_stack([velocities, np.zeros(n)])
+        return ChainBodies(
+            mass=mass,
+            inertia=np.full(n, chain.roller_inertia),
+            pairs=(springs,),
+            roller_body=np.arange(n),
+            roller_offset=np.zeros((n, 2)),
+            q0=q0,
+            v0=v0,
+            link_weights=np.eye(n_links),
+        )
+    if fidelity != "clearance":
+        raise ValueError(f"fidelity must be 'lumped' or 'clearance', got {fidelity!r}")
+    if n % 2:
+        raise ValueError(
+            f"the clearance model alternates roller and pin links, so it needs an even number "
+            f"of rollers (two per roller link), got {n}"
+        )
+    q_link, v_link = _link_frames(rollers, velocities, closed)
+    is_roller_link = idx % 2 == 0
+    half = np.array([p / 2, 0.0])
+    pin_law = pin_law or joint_law(chain, "pin", restitution)
+    # pin links (odd) carry pins at ±p/2 in the bushes of the neighbouring roller links
+    # (an open strand of even roller count starts and ends with roller links, so every
+    # pin link has both neighbours)
+    pl = idx[~is_roller_link]
+    a = np.concatenate([pl, pl])
+    b = np.concatenate([pl - 1, (pl + 1) % n_links])
+    ra = np.concatenate([np.tile(-half, (len(pl), 1)), np.tile(half, (len(pl), 1))])
+    rb = -ra
+    pin_joints = PairGroup(
+        a=jnp.asarray(a),
+        b=jnp.asarray(b),
+        ra=jnp.asarray(ra),
+        rb=jnp.asarray(rb),
+        element=ClearanceJoints(law=pin_law, clearance=pin_law.clearance),
+    )
+    m_link = np.where(is_roller_link, chain.roller_link_mass, chain.pin_link_mass)
+    j_link = np.where(is_roller_link, chain.roller_link_inertia, chain.pin_link_inertia)
+    # rollers: on the bushes of roller link i (even): roller i at −p/2, roller i+1 at +p/2
+    host = np.where(np.arange(n) % 2 == 0, np.arange(n), np.arange(n) - 1)
+    side = np.where(np.arange(n) % 2 == 0, -1.0, 1.0)
+    offs = side[:, None] * half
+    c, s = np.cos(q_link[host, 2]), np.sin(q_link[host, 2])
+    arm = np.column_stack([c * offs[:, 0] - s * offs[:, 1], s * offs[:, 0] + c * offs[:, 1]])
+    bush_x = q_link[host, :2] + arm
+    bush_v = v_link[host, :2] + v_link[host, 2:3] * np.column_stack([-arm[:, 1], arm[:, 0]])
+    pairs = [pin_joints]
+    if rollers_on_bush == "lumped":
+        m_link = m_link + np.where(is_roller_link, 2 * chain.roller_mass, 0.0)
+        j_link = j_link + np.where(
+            is_roller_link, 2 * (chain.roller_inertia + chain.roller_mass * (p / 2) ** 2), 0.0
+        )
+        mass, inertia = m_link, j_link
+        q0, v0 = q_link, v_link
+        roller_body, roller_offset = host, offs
+    elif rollers_on_bush == "joint":
+        bush_law = bush_law or joint_law(chain, "roller", restitution)
+        rbody = n_links + np.arange(n)
+        pairs.append(
+            PairGroup(
+                a=jnp.asarray(host),
+                b=jnp.asarray(rbody),
+                ra=jnp.asarray(offs),
+                rb=jnp.asarray(np.zeros((n, 2))),
+                element=ClearanceJoints(law=bush_law, clearance=bush_law.clearance),
+                carries_tension=False,
+            )
+        )
+        mass = np.concatenate([m_link, np.full(n, chain.roller_mass)])
+        inertia = np.concatenate([j_link, np.full(n, chain.roller_inertia)])
+        q0 = np.concatenate([q_link, np.column_stack([bush_x, np.zeros(n)])])
+        v0 = np.concatenate([v_link, np.column_stack([bush_v, np.zeros(n)])])
+        roller_body, roller_offset = rbody, np.zeros((n, 2))
+    else:
+        raise ValueError(f"rollers_on_bush must be 'joint' or 'lumped', got {rollers_on_bush!r}")
+    return ChainBodies(
+        mass=mass,
+        inertia=inertia,
+        pairs=tuple(pairs),
+        roller_body=roller_body,
+        roller_offset=roller_offset,
+        q0=q0,
+        v0=v0,
+        link_weights=_tension_weights(n_links, a, b),
+    )

@@ -1,0 +1,134 @@
+"""``engagement``: one driver sprocket meshing with an open chain strand under tension."""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._chain import ChainSpec
+from .._contact.base import AbstractContactLaw
+from .._contact.friction import CoulombFriction
+from .._profile import ToothProfile
+from .._scene import Anchors, Scene, Sprocket
+from .build import chain_bodies, link_stiffness, roller_law
+from .drive import _check_positive, _stretch, disc_inertia, resolve_chain
+from .layout import strand_layout
+from .statics import equilibrate
+
+__all__ = ["engagement"]
+
+
+def engagement(
+    chain: ChainSpec | str = "08B",
+    teeth: int = 18,
+    *,
+    speed_rpm: float = 1000.0,
+    tension: float = 1000.0,
+    slack_tension: float = 100.0,
+    wrap: int | None = None,
+    n_entry: int = 8,
+    n_exit: int = 4,
+    fidelity: Literal["lumped", "clearance"] = "lumped",
+    form: Literal["min", "max", "mid"] = "mid",
+    profile: ToothProfile | None = None,
+    restitution: float = 0.7,
+    friction: CoulombFriction | None = None,
+    impact_speed: float = 1.0,
+    rollers_on_bush: Literal["joint", "lumped"] = "joint",
+    roller_contact: AbstractContactLaw | None = None,
+    settle: bool = True,
+    link_damping: float = 0.05,
+    span_stiffness: float | None = None,
+) -> Scene:
+    """The meshing-impact scene used for design: a driver sprocket turning counter-clockwise
+    at ``speed_rpm`` draws an open chain strand in from a tight entry span (held at
+    ``tension`` far away) and lets it out into a slack exit span (``slack_tension``).
+
+    ``wrap`` rollers start seated (default z/2), ``n_entry`` rollers on the entry span mesh
+    one after the other, one per tooth period 2π/(zω); simulate up to about
+    ``n_entry`` tooth periods. Each free span end runs on a guide moving at the chain's mean
+    speed, pulled by its tension through a soft spring (``span_stiffness``, default 1/50 of
+    a link's: the rest of a 50-link span). With ``settle`` (default) the strand starts from
+    its static equilibrium on the held sprocket (:func:`~jaxchain.scenes.equilibrate`).
+    Other arguments as in :func:`~jaxchain.scenes.drive`.
+    """
+    chain = resolve_chain(chain)
+    _check_positive("speed_rpm", speed_rpm, "rpm (the sprocket must turn)")
+    _check_positive("tension", tension, "N (a slack entry span does not mesh)")
+    if slack_tension < 0:
+        raise ValueError(f"slack_tension must be >= 0 N, got {slack_tension}")
+    if profile is None:
+        profile = ToothProfile.iso606(chain, teeth, form)
+    if profile.teeth != teeth:
+        raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
+    if wrap is None:
+        wrap = teeth // 2
+    if fidelity == "clearance" and (wrap + n_entry + n_exit) % 2:
+        n_exit += 1  # the clearance strand needs an even roller count
+    lay = strand_layout(
+        chain.pitch,
+        teeth,
+        wrap=wrap,
+        n_entry=n_entry,
+        n_exit=n_exit,
+        link_pitch=chain.pitch + _stretch(chain, fidelity, tension),
+    )
+    omega = speed_rpm * 2 * math.pi / 60
+    rollers = np.asarray(lay.rollers)
+    # rigid transport: seated rollers turn with the sprocket; each span translates at the
+    # speed of its seated end roller, along the span
+    seated = np.asarray(lay.sprocket_of) == 0
+    vel = omega * np.column_stack([-rollers[:, 1], rollers[:, 0]])
+    # the chain's mean speed on a polygon is z·p·ω/2π (slower than ω·R by sin(π/z)/(π/z))
+    v_chain = omega * teeth * chain.pitch / (2 * math.pi)
+    first, last = np.nonzero(seated)[0][[0, -1]]
+    entry_dir, exit_dir = np.asarray(lay.entry_dir), np.asarray(lay.exit_dir)
+    vel[:first] = -v_chain * entry_dir
+    vel[last + 1 :] = v_chain * exit_dir
+    bodies = chain_bodies(
+        chain,
+        rollers,
+        vel,
+        closed=False,
+        fidelity=fidelity,
+        restitution=restitution,
+        rollers_on_bush=rollers_on_bush,
+        damping_ratio=link_damping,
+        link_load=tension,
+    )
+    k_span = span_stiffness or link_stiffness(chain, tension) / 50
+    ends = np.asarray(bodies.roller_body)[[0, -1]]
+    m_end = np.asarray(bodies.mass)[ends]
+    anchors = Anchors(
+        body=jnp.asarray(ends),
+        origin=jnp.asarray(np.asarray(bodies.q0)[ends, :2]),
+        direction=jnp.asarray(np.stack([entry_dir, exit_dir])),
+        speed=jnp.asarray([-v_chain, v_chain]),
+        tension=jnp.asarray([tension, slack_tension]),
+        stiffness=jnp.full(2, k_span),
+        damping=jnp.asarray(2 * np.sqrt(k_span * m_end)),
+    )
+    sprocket = Sprocket(
+        profile, [0.0, 0.0], omega, angle0=lay.theta, inertia=disc_inertia(chain, profile)
+    )
+    scene = Scene(
+        mass=jnp.asarray(bodies.mass),
+        inertia=jnp.asarray(bodies.inertia),
+        pairs=bodies.pairs,
+        roller_body=jnp.asarray(bodies.roller_body),
+        roller_offset=jnp.asarray(bodies.roller_offset),
+        roller_law=roller_contact or roller_law(chain, restitution),
+        friction=friction,
+        sprockets=(sprocket,),
+        anchors=anchors,
+        impact_speed=jnp.asarray(impact_speed, dtype=float),
+        q0=jnp.asarray(bodies.q0),
+        v0=jnp.asarray(bodies.v0),
+        link_weights=jnp.asarray(bodies.link_weights),
+        gravity=jnp.zeros(2),
+        fidelity=fidelity,
+    )
+    return equilibrate(scene) if settle else scene

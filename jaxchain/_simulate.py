@@ -1,0 +1,249 @@
+"""``simulate``: one jitted entry point around ``diffrax.diffeqsolve``."""
+
+from __future__ import annotations
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, ArrayLike, Float
+
+from ._dynamics import initial_state, outputs, vector_field
+from ._scene import Scene
+
+__all__ = ["simulate", "Solution", "Result"]
+
+
+class Result(eqx.Enumeration):
+    """Outcome of a solve, with what to change."""
+
+    successful = ""
+    max_steps_reached = (
+        "The solver used up max_steps before t1. Stiff contact forces an explicit solver to "
+        "tiny steps: raise max_steps, loosen rtol/atol, lower the contact stiffness or widen "
+        "its regularization, or choose an implicit solver (e.g. diffrax.Kvaerno5())."
+    )
+    step_size_collapse = (
+        "The step size collapsed to dtmin: the state changes faster than the solver can "
+        "resolve at this tolerance (usually a contact too stiff or an impact too violent). "
+        "Loosen rtol/atol, lower dtmin, or widen the contact regularization."
+    )
+    diverged = (
+        "The solution became non-finite (NaN/inf) or flew apart: the solve diverged. With "
+        "fixed steps the step is above the explicit stability limit of the stiffest contact or "
+        "link "
+        "(about 2/ω_max for Euler/Heun, 2.8/ω_max for RK4-type): reduce dt0, or use an adaptive "
+        "step-size controller or an implicit solver. In float32, enable float64 "
+        "(jax.config.update('jax_enable_x64', True))."
+    )
+    implicit_solver_failed = (
+        "The implicit solver's Newton iteration did not converge. Reduce the step (dt0 or "
+        "tolerances), or use an explicit solver for this non-stiff scene."
+    )
+    internal = "diffrax reported an internal failure; see the diffrax result in Solution.stats."
+
+
+def _classify(diffrax_result, finite) -> Result:
+    r = diffrax.RESULTS
+    out = Result.where(diffrax_result == r.successful, Result.successful, Result.internal)
+    out = Result.where(diffrax_result == r.max_steps_reached, Result.max_steps_reached, out)
+    out = Result.where(diffrax_result == r.dt_min_reached, Result.step_size_collapse, out)
+    out = Result.where(diffrax_result == r.nonfinite, Result.diverged, out)
+    for bad in (r.nonlinear_max_steps_reached, r.nonlinear_divergence):
+        out = Result.where(diffrax_result == bad, Result.implicit_solver_failed, out)
+    # diffrax pads save times it never reached with inf: judge finiteness only when the
+    # solve itself reports success (a fixed-step explicit blow-up does)
+    ok = diffrax_result == r.successful
+    return Result.where(ok & ~finite, Result.diverged, out)
+
+
+class Solution(eqx.Module):
+    """Named outputs of a drive simulation (SI units).
+
+    Attributes:
+        ts: (T,) save times [s].
+        roller_position, roller_velocity: (T, R, 2) world frame [m], [m/s].
+        roller_sprocket_force: (T, R) roller/tooth normal force, summed over sprockets [N].
+        peak_contact_force: max of the roller/tooth force over the save times *and* every
+            accepted solver step [N].
+        link_tension: (T, L) [N] (pin/bush joint forces averaged per link, or link springs).
+        sprocket_speed, sprocket_angle: (T, S) [rad/s], [rad].
+        sprocket_torque: (T, S) torque of the chain on each sprocket [N·m].
+        result: :class:`Result` code; ``message`` says what happened and what to change.
+        stats: solver statistics (num_steps, num_accepted_steps, num_rejected_steps, …).
+    """
+
+    ts: Float[Array, " T"]
+    roller_position: Float[Array, "T R 2"]
+    roller_velocity: Float[Array, "T R 2"]
+    roller_sprocket_force: Float[Array, "T R"]
+    link_tension: Float[Array, "T L"]
+    sprocket_speed: Float[Array, "T S"]
+    sprocket_angle: Float[Array, "T S"]
+    sprocket_torque: Float[Array, "T S"]
+    peak_contact_force: Float[Array, ""]
+    result: Result
+    stats: dict
+    y1: object
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.result == Result.successful)
+
+    @property
+    def message(self) -> str:
+        """What happened, and what to change ("" when successful)."""
+        return Result[self.result]
+
+
+def _peak_fn(t, y, scene):
+    from ._dynamics import forces
+
+    return jnp.max(jnp.sum(forces(t, y, scene).roller_normal, axis=0))
+
+
+@eqx.filter_jit
+def _solve(scene, t0, t1, ts, solver, controller, dt0, max_steps, adjoint, progress_meter):
+    y0 = initial_state(scene)
+    saveat = diffrax.SaveAt(
+        subs=[
+            diffrax.SubSaveAt(ts=ts, fn=lambda t, y, args: outputs(t, y, args)),
+            diffrax.SubSaveAt(steps=True, fn=_peak_fn),
+            diffrax.SubSaveAt(t1=True),
+        ]
+    )
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(vector_field),
+        solver,
+        t0,
+        t1,
+        dt0,
+        y0,
+        args=scene,
+        saveat=saveat,
+        stepsize_controller=controller,
+        max_steps=max_steps,
+        adjoint=adjoint,
+        progress_meter=progress_meter,
+        throw=False,
+    )
+    saved, step_peaks, y1 = sol.ys
+    # steps=True fills one entry per accepted step and pads the rest of the buffer
+    valid = jnp.arange(step_peaks.shape[0]) < sol.stats["num_accepted_steps"]
+    step_peak = jnp.max(
+        jnp.where(valid, jnp.where(jnp.isnan(step_peaks), jnp.inf, step_peaks), -jnp.inf)
+    )
+    peak = jnp.maximum(jnp.max(saved["roller_sprocket_force"]), step_peak)
+    finite = jnp.all(
+        jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree_util.tree_leaves(saved)])
+    ) & jnp.isfinite(peak)
+    # a blow-up is caught before it overflows: rollers thrown far out of the scene
+    size = jnp.max(jnp.abs(scene.q0[:, :2])) + jnp.max(
+        jnp.stack([jnp.max(jnp.abs(s.centre)) for s in scene.sprockets])
+    )
+    finite = finite & jnp.all(jnp.abs(saved["roller_position"]) < 1e3 * size)
+    result = _classify(sol.result, finite)
+    stats = dict(sol.stats)
+    stats["diffrax_result"] = sol.result._value
+    return saved, peak, result, stats, jax.tree_util.tree_map(lambda x: x[-1], y1)
+
+
+def simulate(
+    scene: Scene,
+    t1: ArrayLike,
+    *,
+    t0: ArrayLike = 0.0,
+    solver: diffrax.AbstractSolver | None = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+    dt0: ArrayLike | None = None,
+    max_steps: int = 200_000,
+    ts: ArrayLike | None = None,
+    n_save: int = 501,
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
+    progress: bool = False,
+    throw: bool = True,
+) -> Solution:
+    """Simulate ``scene`` from ``t0`` to ``t1`` [s].
+
+    Args:
+        scene: built by :mod:`jaxchain.scenes`.
+        t1, t0: time span [s].
+        solver: any diffrax solver (default ``diffrax.Tsit5()``).
+        rtol, atol: tolerances of the default PID step-size controller, which measures the
+            error in the max norm (a single contact's error is not averaged away).
+        dt0: initial step; with ``stepsize_controller=diffrax.ConstantStepSize()`` the
+            fixed step.
+        max_steps: step budget (also the size of the per-step peak-force buffer).
+        ts: save times (default: ``n_save`` equally spaced over [t0, t1]).
+        stepsize_controller: overrides the default controller.
+        adjoint: diffrax adjoint for gradients (default: recursive checkpointing, which
+            differentiates the discrete solve exactly).
+        progress: show a progress meter (tqdm if installed, else text).
+        throw: raise on failure (``RuntimeError`` with what to change); with
+            ``throw=False`` check ``Solution.result`` / ``Solution.message``.
+
+    Returns:
+        :class:`Solution`.
+
+    Jitted once per scene *structure*: a second call with new array values (speeds,
+    profiles, loads) does not retrace.
+    """
+    if solver is None:
+        solver = diffrax.Tsit5()
+    if stepsize_controller is None:
+        stepsize_controller = diffrax.PIDController(  # array tolerances: no recompile
+            rtol=jnp.asarray(rtol, dtype=float),
+            atol=jnp.asarray(atol, dtype=float),
+            norm=optx.max_norm,
+            pcoeff=0.2,
+            icoeff=0.4,
+        )
+    if isinstance(stepsize_controller, diffrax.ConstantStepSize) and dt0 is None:
+        raise ValueError("a fixed step (ConstantStepSize) needs dt0 > 0 [s]")
+    if dt0 is not None and not np.all(np.asarray(dt0) > 0):
+        raise ValueError(f"dt0 must be > 0 s, got {dt0}")
+    if not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+        raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
+    t0a = jnp.asarray(t0, dtype=float)
+    t1a = jnp.asarray(t1, dtype=float)
+    if not isinstance(t1a, jax.core.Tracer) and not isinstance(t0a, jax.core.Tracer):
+        if not float(t1a) > float(t0a):
+            raise ValueError(f"t1 must be > t0, got t0={float(t0a)}, t1={float(t1a)}")
+    ts = jnp.linspace(t0a, t1a, n_save) if ts is None else jnp.asarray(ts, dtype=float)
+    if adjoint is None:
+        adjoint = diffrax.RecursiveCheckpointAdjoint()
+    if progress:
+        try:
+            import tqdm  # noqa: F401
+
+            meter = diffrax.TqdmProgressMeter()
+        except ImportError:
+            meter = diffrax.TextProgressMeter()
+    else:
+        meter = diffrax.NoProgressMeter()
+    dt0a = None if dt0 is None else jnp.asarray(dt0, dtype=float)
+    # strong dtypes: a weakly typed leaf (jnp.asarray(110.0)) must not force a retrace
+    scene = jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
+        scene,
+    )
+    saved, peak, result, stats, y1 = _solve(
+        scene, t0a, t1a, ts, solver, stepsize_controller, dt0a, max_steps, adjoint, meter
+    )
+    if throw:
+        if isinstance(peak, jax.core.Tracer):  # inside the caller's jit/grad: runtime error
+            saved = result.error_if(saved, result != Result.successful)
+        elif result != Result.successful:
+            raise RuntimeError(f"simulate failed: {Result[result]}")
+    return Solution(
+        ts=ts,
+        peak_contact_force=peak,
+        result=result,
+        stats=stats,
+        y1=y1,
+        **saved,
+    )

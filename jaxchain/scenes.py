@@ -1,0 +1,19 @@
+"""Scene builders: a scene is data (bodies, force elements, sprockets, loads).
+
+scene = jc.scenes.drive("08B", teeth=(18, 36), speed_rpm=1000, fidelity="lumped")
+scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
+"""
+
+from ._scenes.build import (
+    joint_law as joint_law,
+    link_stiffness as link_stiffness,
+    roller_law as roller_law,
+)
+from ._scenes.drive import drive as drive
+from ._scenes.engagement import engagement as engagement
+from ._scenes.layout import (
+    closed_drive_layout as closed_drive_layout,
+    strand_layout as strand_layout,
+    transport_velocity as transport_velocity,
+)
+from ._scenes.statics import equilibrate as equilibrate
