@@ -163,6 +163,16 @@ def main(argv=None):
         row, _ = case(f"engagement z18 {fid}", sc, (1 if quick else 4) * period, rev)
         eng[fid] = row
     results["engagement"] = eng
+    lum, cle = eng["lumped"], eng["clearance"]
+    results["engagement_fidelity"] = {
+        "peak_clearance_vs_lumped": cle["peak_force_N"] / lum["peak_force_N"] - 1,
+        "cost_clearance_vs_lumped": cle["wall_per_rev_s"] / lum["wall_per_rev_s"],
+    }
+    ef = results["engagement_fidelity"]
+    print(
+        f"  engagement, clearance vs lumped: peak {ef['peak_clearance_vs_lumped']:+.1%}, "
+        f"cost ×{ef['cost_clearance_vs_lumped']:.1f} (both start settled)"
+    )
     print("compile time of simulate against link count:")
     results["compile"] = compile_times(
         ("lumped",) if quick else ("lumped", "clearance"), (50, 100) if quick else (50, 100, 200)

@@ -250,3 +250,32 @@ def test_scene_validation():
         jc.scenes.engagement(tension=0.0, settle=False)
     with pytest.raises(ValueError, match="fidelity"):
         jc.scenes.drive(fidelity="exact", settle=False)
+
+
+@pytest.mark.parametrize("ratio", [0.5, 1.0, 2.0])
+def test_history_free_damping_restitution(ratio):
+    """Scenes use history-free damping: the law's impact speed is the scene's fixed
+    reference speed v_ref, so an impact at speed v sees χ(e)·v/v_ref and rebounds with the
+    closed-form e*(χ·v/v_ref) — e exactly at v_ref, livelier below it, deader above."""
+    law = jc.scenes.roller_law(jc.ChainSpec.iso606("08B"), restitution=0.7)
+    v_ref, m = 1.0, 0.01
+    v0 = ratio * v_ref
+
+    def field(t, y, args):
+        x, v = y  # x = depth, v = depth rate
+        return v, -law.normal_force(x, v, v_ref) / m
+
+    w = float(law.width)
+    sol = diffrax.diffeqsolve(
+        diffrax.ODETerm(field),
+        diffrax.Tsit5(),
+        0.0,
+        2e-4,
+        1e-8,
+        (jnp.asarray(-1.01 * w), jnp.asarray(v0)),
+        stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-14),
+        max_steps=100_000,
+    )
+    e_measured = -float(sol.ys[1][-1]) / v0
+    chi = float(law.damping_factor()) * v0 / np.sqrt(v_ref**2 + float(law.speed_floor) ** 2)
+    np.testing.assert_allclose(e_measured, jc.contact.hysteresis_restitution(chi), atol=1e-6)

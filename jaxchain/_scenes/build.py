@@ -21,11 +21,13 @@ import numpy as np
 
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
+from .._contact.friction import CoulombFriction
 from .._contact.johnson import JohnsonCylinder
 from .._materials import STEEL, Material, effective_modulus
-from .._scene import ClearanceJoints, LinkSprings, PairGroup
+from .._scene import Anchors, ClearanceJoints, LinkSprings, PairGroup, Scene, Sprocket
 
 __all__ = [
+    "assemble",
     "ChainBodies",
     "chain_bodies",
     "joint_law",
@@ -258,4 +260,34 @@ def chain_bodies(
         q0=q0,
         v0=v0,
         link_weights=_tension_weights(n_links, a, b),
+    )
+
+
+def assemble(
+    bodies: ChainBodies,
+    *,
+    sprockets: tuple[Sprocket, ...],
+    anchors: Anchors | None,
+    roller_contact: AbstractContactLaw,
+    friction: CoulombFriction | None,
+    impact_speed: float,
+    fidelity: str,
+) -> Scene:
+    """A :class:`Scene` from chain bodies, sprockets and boundary conditions."""
+    return Scene(
+        mass=jnp.asarray(bodies.mass),
+        inertia=jnp.asarray(bodies.inertia),
+        pairs=bodies.pairs,
+        roller_body=jnp.asarray(bodies.roller_body),
+        roller_offset=jnp.asarray(bodies.roller_offset),
+        roller_law=roller_contact,
+        friction=friction,
+        sprockets=sprockets,
+        anchors=anchors,
+        impact_speed=jnp.asarray(impact_speed, dtype=float),
+        q0=jnp.asarray(bodies.q0),
+        v0=jnp.asarray(bodies.v0),
+        link_weights=jnp.asarray(bodies.link_weights),
+        gravity=jnp.zeros(2),
+        fidelity=fidelity,
     )

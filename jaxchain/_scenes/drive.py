@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-import jax.numpy as jnp
 import numpy as np
 
 from .._chain import ChainSpec
@@ -13,7 +12,7 @@ from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._profile import ToothProfile
 from .._scene import Scene, Sprocket
-from .build import chain_bodies, johnson_deflection, joint_law, link_stiffness, roller_law
+from .build import assemble, chain_bodies, johnson_deflection, joint_law, link_stiffness, roller_law
 from .layout import closed_drive_layout, transport_velocity
 from .statics import equilibrate
 
@@ -65,7 +64,7 @@ def drive(
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,
-    settle: bool = True,
+    settle: bool | None = None,
     link_damping: float = 0.05,
 ) -> Scene:
     """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
@@ -98,7 +97,9 @@ def drive(
         roller_contact: roller/tooth law (default :func:`~jaxchain.scenes.roller_law`).
         link_damping: damping ratio of the lumped links (0: undamped).
         settle: start from the static equilibrium of the layout (see
-            :func:`~jaxchain.scenes.equilibrate`); False starts from the raw layout.
+            :func:`~jaxchain.scenes.equilibrate`); False starts from the raw layout with
+            the load ramped in. Default: True for "lumped"; False for "clearance", whose
+            statics (joint free play on top of the seats') is not yet robust.
     """
     chain = resolve_chain(chain)
     z1, z2 = teeth
@@ -140,6 +141,8 @@ def drive(
     if driven_inertia is None:
         driven_inertia = disc_inertia(chain, profiles[1])
     _check_positive("driven_inertia", driven_inertia, "kg·m²")
+    if settle is None:
+        settle = fidelity == "lumped"
     if load_ramp is None:  # a settled start carries the full load already
         load_ramp = 0.0 if settle else 2 * math.pi / omega1
     sprockets = (
@@ -161,21 +164,13 @@ def drive(
             driven=True,
         ),
     )
-    scene = Scene(
-        mass=jnp.asarray(bodies.mass),
-        inertia=jnp.asarray(bodies.inertia),
-        pairs=bodies.pairs,
-        roller_body=jnp.asarray(bodies.roller_body),
-        roller_offset=jnp.asarray(bodies.roller_offset),
-        roller_law=roller_contact or roller_law(chain, restitution),
-        friction=friction,
+    scene = assemble(
+        bodies,
         sprockets=sprockets,
         anchors=None,
-        impact_speed=jnp.asarray(impact_speed, dtype=float),
-        q0=jnp.asarray(bodies.q0),
-        v0=jnp.asarray(bodies.v0),
-        link_weights=jnp.asarray(bodies.link_weights),
-        gravity=jnp.zeros(2),
+        roller_contact=roller_contact or roller_law(chain, restitution),
+        friction=friction,
+        impact_speed=impact_speed,
         fidelity=fidelity,
     )
     return equilibrate(scene, take_up=2 * pretension) if settle else scene

@@ -13,7 +13,7 @@ from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._profile import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
-from .build import chain_bodies, link_stiffness, roller_law
+from .build import assemble, chain_bodies, link_stiffness, roller_law
 from .drive import _check_positive, _stretch, disc_inertia, resolve_chain
 from .layout import strand_layout
 from .statics import equilibrate
@@ -114,21 +114,13 @@ def engagement(
     sprocket = Sprocket(
         profile, [0.0, 0.0], omega, angle0=lay.theta, inertia=disc_inertia(chain, profile)
     )
-    scene = Scene(
-        mass=jnp.asarray(bodies.mass),
-        inertia=jnp.asarray(bodies.inertia),
-        pairs=bodies.pairs,
-        roller_body=jnp.asarray(bodies.roller_body),
-        roller_offset=jnp.asarray(bodies.roller_offset),
-        roller_law=roller_contact or roller_law(chain, restitution),
-        friction=friction,
+    scene = assemble(
+        bodies,
         sprockets=(sprocket,),
         anchors=anchors,
-        impact_speed=jnp.asarray(impact_speed, dtype=float),
-        q0=jnp.asarray(bodies.q0),
-        v0=jnp.asarray(bodies.v0),
-        link_weights=jnp.asarray(bodies.link_weights),
-        gravity=jnp.zeros(2),
+        roller_contact=roller_contact or roller_law(chain, restitution),
+        friction=friction,
+        impact_speed=impact_speed,
         fidelity=fidelity,
     )
     return equilibrate(scene) if settle else scene
