@@ -10,7 +10,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
-from ._dynamics import initial_state, outputs, vector_field
+from ._dynamics import forces, initial_state, outputs, vector_field
 from ._scene import Scene
 
 __all__ = ["simulate", "Solution", "Result"]
@@ -99,8 +99,6 @@ class Solution(eqx.Module):
 
 
 def _peak_fn(t, y, scene):
-    from ._dynamics import forces
-
     return jnp.max(jnp.sum(forces(t, y, scene).roller_normal, axis=0))
 
 

@@ -2,12 +2,25 @@
 
 A layout puts every wrapped roller at the centre of its seat, out of contact; under
 tension the chain would then snap into the seats at t = 0 and the start-up transient would
-dwarf the meshing impacts. ``equilibrate`` moves the chain bodies (and the driven
-sprockets' angles, so their chain torque balances the full load torque) to the static
-equilibrium at t = 0 with the sprockets held: a trust-region least-squares solve
-(optimistix dogleg; ~70 iterations where Levenberg–Marquardt needed ~450 from the
-out-of-contact start) of the force residual in scaled variables (displacements in
-pitches, forces in units of the largest tension).
+dwarf the meshing impacts. ``equilibrate`` moves the chain bodies to the static
+equilibrium at t = 0 with the driver held, by a trust-region least-squares solve
+(optimistix dogleg) of the force residual in scaled variables (displacements in pitches,
+forces in units of the largest applied force). In stages, because out of contact several
+unknowns have no stiffness yet:
+
+1. closed chains: the driven axes are moved out along the centre line by twice the seat
+   clearance (the driven wrap with them, the spans stretched evenly) and held, and the
+   chain settles into contact;
+2. then the driven axes are set free under a take-up force (each span then carries half
+   of it) and the driven sprockets' angles under their full load torque;
+3. open strands: anchor guides are moved by the strand's slide until each pulls with
+   exactly its tension.
+
+A vanishing spring to the start (1e-6 in scaled units) keeps bodies floating in free
+play (a roller inside its bush clearance) from making the problem rank-deficient;
+convergence is judged on the true forces without it, and a solve that moves anything by
+a pitch or more is rejected. Lumped chains settle reliably; closed clearance chains
+(joint free play on top of the seats') do not yet.
 """
 
 from __future__ import annotations
