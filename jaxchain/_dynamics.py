@@ -37,6 +37,7 @@ class Forces(NamedTuple):
     roller_normal: Float[Array, "S R"]  # roller/tooth normal force per sprocket [N]
     sprocket_torque: Float[Array, " S"]  # torque of the chain on each sprocket [N·m]
     sprocket_force: Float[Array, "S 2"]  # force of the chain on each sprocket's axis [N]
+    slots_ok: Array  # bool: every sprocket's farthest contact slot is out of reach
     element_tension: Float[Array, " E"]  # tensions of tension-carrying elements [N]
 
 
@@ -104,16 +105,28 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
     r = scene.roller_radius
     normals, torques, pulls = [], [], []
     roller_f = jnp.zeros_like(xr)
+    slots_ok = jnp.asarray(True)
+    n_r = xr.shape[0]
     for k, spr in enumerate(scene.sprockets):
         c, s = jnp.cos(y.theta[k]), jnp.sin(y.theta[k])
-        rel = xr - spr.centre
+        rel_all = xr - spr.centre
+        if spr.contact_slots is not None and spr.contact_slots < n_r:
+            # only the nearest rollers can touch: the others' force is exactly zero
+            d2 = jnp.sum(rel_all * rel_all, -1)
+            neg, sel = jax.lax.top_k(-jax.lax.stop_gradient(d2), spr.contact_slots)
+            # all tooth material lies inside the tip circle: a roller whose centre is
+            # farther than tip radius + roller radius (+ margin) cannot touch a tooth
+            reach = spr.profile.tip_diameter / 2 + 1.05 * r
+            slots_ok = slots_ok & (jnp.min(neg) < -(reach**2))
+        else:
+            sel = jnp.arange(n_r)
+        rel, vsel = rel_all[sel], vr[sel]
         local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
         depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
         nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
-        xc = xr - r * nrm  # contact point on the roller surface
-        arm_s = xc - spr.centre
+        arm_s = rel - r * nrm  # contact point on the roller surface, from the axis
         vsurf = y.omega[k] * jnp.stack([-arm_s[:, 1], arm_s[:, 0]], -1)
-        vrel = vr - vsurf
+        vrel = vsel - vsurf
         approach = -jnp.sum(nrm * vrel, -1)
         fn = scene.roller_law.normal_force(depth, approach, scene.impact_speed)
         f = fn[:, None] * nrm
@@ -121,8 +134,8 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
             tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
             slip = jnp.sum(tang * vrel, -1)
             f = f + scene.friction.force(fn, slip)[:, None] * tang
-        roller_f = roller_f + f
-        normals.append(fn)
+        roller_f = roller_f.at[sel].add(f)
+        normals.append(jnp.zeros(n_r, fn.dtype).at[sel].add(fn))
         torques.append(jnp.sum(cross2(arm_s, -f)))
         pulls.append(-jnp.sum(f, axis=0))
     total = total + _scatter(n, scene.roller_body, arm_r, roller_f)
@@ -132,6 +145,7 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         roller_normal=jnp.stack(normals),
         sprocket_torque=jnp.stack(torques),
         sprocket_force=jnp.stack(pulls),
+        slots_ok=slots_ok,
         element_tension=jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype),
     )
 
@@ -164,6 +178,7 @@ def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
         "sprocket_speed": y.omega,
         "sprocket_angle": y.theta,
         "sprocket_torque": fr.sprocket_torque,
+        "contact_slots_ok": fr.slots_ok,
     }
 
 

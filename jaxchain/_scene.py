@@ -45,6 +45,11 @@ class Sprocket(eqx.Module):
             this time [s] (0: applied at once).
         driven: False for a driver (speed prescribed), True for a free sprocket
             (static).
+        contact_slots: how many rollers (the nearest to the axis) are checked against
+            this sprocket; None: all. Only rollers within the tip radius plus a roller
+            radius can touch it, so wrap + a few is exact; ``simulate`` reports
+            ``Result.contact_slots_exceeded`` if the farthest slot ever comes within reach
+            (static).
     """
 
     profile: ToothProfile
@@ -55,6 +60,7 @@ class Sprocket(eqx.Module):
     angle0: Float[Array, ""]
     load_ramp: Float[Array, ""]
     driven: bool = eqx.field(static=True)
+    contact_slots: int | None = eqx.field(static=True)
 
     def __init__(
         self,
@@ -67,6 +73,7 @@ class Sprocket(eqx.Module):
         angle0=0.0,
         load_ramp=0.0,
         driven=False,
+        contact_slots=None,
     ):
         self.profile = profile
         self.centre = jnp.asarray(centre, dtype=float)
@@ -76,6 +83,7 @@ class Sprocket(eqx.Module):
         self.angle0 = jnp.asarray(angle0, dtype=float)
         self.load_ramp = jnp.asarray(load_ramp, dtype=float)
         self.driven = bool(driven)
+        self.contact_slots = None if contact_slots is None else int(contact_slots)
 
     def load(self, t):
         """Load torque at time t [N·m] (smoothstep ramp over ``load_ramp``)."""

@@ -42,6 +42,11 @@ class Result(eqx.Enumeration):
         "The implicit solver's Newton iteration did not converge. Reduce the step (dt0 or "
         "tolerances), or use an explicit solver for this non-stiff scene."
     )
+    contact_slots_exceeded = (
+        "More rollers came within reach of a sprocket than it has contact slots "
+        "(Sprocket.contact_slots), so contacts may have been missed: rebuild the scene with "
+        "more slots, or contact_slots=None to check every roller."
+    )
     internal = "diffrax reported an internal failure; see the diffrax result in Solution.stats."
 
 
@@ -143,6 +148,10 @@ def _solve(scene, t0, t1, ts, solver, controller, dt0, max_steps, adjoint, progr
     )
     finite = finite & jnp.all(jnp.abs(saved["roller_position"]) < 1e3 * size)
     result = _classify(sol.result, finite)
+    slots_ok = jnp.all(saved.pop("contact_slots_ok"))
+    result = Result.where(
+        slots_ok | (result != Result.successful), result, Result.contact_slots_exceeded
+    )
     stats = dict(sol.stats)
     stats["diffrax_result"] = sol.result._value
     return saved, peak, result, stats, jax.tree_util.tree_map(lambda x: x[-1], y1)

@@ -279,3 +279,29 @@ def test_history_free_damping_restitution(ratio):
     e_measured = -float(sol.ys[1][-1]) / v0
     chi = float(law.damping_factor()) * v0 / np.sqrt(v_ref**2 + float(law.speed_floor) ** 2)
     np.testing.assert_allclose(e_measured, jc.contact.hysteresis_restitution(chi), atol=1e-6)
+
+
+def _with_slots(scene, slots):
+    import dataclasses
+
+    import equinox as eqx
+
+    sprockets = tuple(
+        dataclasses.replace(s, contact_slots=n) for s, n in zip(scene.sprockets, slots, strict=True)
+    )
+    return eqx.tree_at(lambda sc: sc.sprockets, scene, sprockets)
+
+
+def test_contact_slots_are_exact_and_checked(engagement18):
+    """Checking only the nearest rollers changes nothing (the others' force is exactly 0);
+    too few slots is reported, not silently wrong."""
+    T = period(1000, 18)
+    assert engagement18.sprockets[0].contact_slots is not None
+    a = jc.simulate(engagement18, T, n_save=101)
+    b = jc.simulate(_with_slots(engagement18, [None]), T, n_save=101)
+    np.testing.assert_allclose(
+        a.roller_sprocket_force, b.roller_sprocket_force, rtol=1e-9, atol=1e-9
+    )
+    bad = jc.simulate(_with_slots(engagement18, [3]), T, n_save=101, throw=False)
+    assert bad.result == jc.Result.contact_slots_exceeded
+    assert "contact_slots" in bad.message

@@ -29,6 +29,14 @@ def disc_inertia(chain: ChainSpec, profile: ToothProfile, density: float = 7850.
     return density * math.pi * 0.9 * chain.inner_width * r**4 / 2
 
 
+def _slots(wrap: int, n_rollers: int) -> int | None:
+    """Contact slots of a sprocket wrapped by ``wrap`` rollers: the wrap, the two span
+    rollers on each side within the reach circle, and a margin; None (check all) when that
+    is no saving."""
+    slots = int(wrap) + 6
+    return None if slots >= n_rollers else slots
+
+
 def _check_positive(name, value, unit):
     if not np.all(np.asarray(value) > 0):
         raise ValueError(f"{name} must be > 0 {unit}, got {value}")
@@ -152,6 +160,7 @@ def drive(
             omega1,
             angle0=lay.theta[0],
             inertia=disc_inertia(chain, profiles[0]),
+            contact_slots=_slots(lay.wrap[0], lay.n_links),
         ),
         Sprocket(
             profiles[1],
@@ -162,6 +171,7 @@ def drive(
             angle0=lay.theta[1],
             load_ramp=load_ramp,
             driven=True,
+            contact_slots=_slots(lay.wrap[1], lay.n_links),
         ),
     )
     scene = assemble(

@@ -14,7 +14,7 @@ from .._contact.friction import CoulombFriction
 from .._profile import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
-from .drive import _check_positive, _stretch, disc_inertia, resolve_chain
+from .drive import _check_positive, _slots, _stretch, disc_inertia, resolve_chain
 from .layout import strand_layout
 from .statics import equilibrate
 
@@ -112,7 +112,12 @@ def engagement(
         damping=jnp.asarray(2 * np.sqrt(k_span * m_end)),
     )
     sprocket = Sprocket(
-        profile, [0.0, 0.0], omega, angle0=lay.theta, inertia=disc_inertia(chain, profile)
+        profile,
+        [0.0, 0.0],
+        omega,
+        angle0=lay.theta,
+        inertia=disc_inertia(chain, profile),
+        contact_slots=_slots(wrap, len(rollers)),
     )
     scene = assemble(
         bodies,
