@@ -173,6 +173,23 @@ def main(argv=None):
         f"  engagement, clearance vs lumped: peak {ef['peak_clearance_vs_lumped']:+.1%}, "
         f"cost ×{ef['cost_clearance_vs_lumped']:.1f} (both start settled)"
     )
+    # the roller fixed to its bush vs the roller on its own clearance joint (both settled)
+    sc = jc.scenes.engagement(
+        "08B", 18, speed_rpm=1000, n_entry=8, fidelity="clearance", rollers_on_bush="lumped"
+    )
+    row, _ = case(
+        "engagement z18 clearance/rollers-lumped", sc, (1 if quick else 4) * (rev / 18), rev
+    )
+    eng["clearance/rollers-lumped"] = row
+    results["engagement_rollers"] = {
+        "peak_rollers_lumped_vs_joint": row["peak_force_N"] / cle["peak_force_N"] - 1,
+        "cost_rollers_lumped_vs_joint": row["wall_per_rev_s"] / cle["wall_per_rev_s"],
+    }
+    er = results["engagement_rollers"]
+    print(
+        f"  engagement, roller fixed to bush vs on its joint: peak "
+        f"{er['peak_rollers_lumped_vs_joint']:+.1%}, cost ×{er['cost_rollers_lumped_vs_joint']:.2f}"
+    )
     print("compile time of simulate against link count:")
     results["compile"] = compile_times(
         ("lumped",) if quick else ("lumped", "clearance"), (50, 100) if quick else (50, 100, 200)
