@@ -92,6 +92,16 @@ def case(name, scene, t1, rev):
     return row, sol
 
 
+def _compare(label, row, base):
+    """Peak and cost of ``row`` relative to ``base`` (printed and returned)."""
+    out = {
+        "peak_change": row["peak_force_N"] / base["peak_force_N"] - 1,
+        "cost_ratio": row["wall_per_rev_s"] / base["wall_per_rev_s"],
+    }
+    print(f"  engagement, {label}: peak {out['peak_change']:+.1%}, cost ×{out['cost_ratio']:.2f}")
+    return out
+
+
 def compile_times(fidelities, links=(50, 100, 200)):
     rows = []
     for fid in fidelities:
@@ -157,38 +167,23 @@ def main(argv=None):
     }
     print("scenes (1000 rpm, 08B, default tolerances rtol 1e-6 / atol 1e-9):")
     eng = {}
-    for fid in ("lumped", "clearance"):
-        sc = jc.scenes.engagement("08B", 18, speed_rpm=1000, n_entry=8, fidelity=fid)
-        period = rev / 18
-        row, _ = case(f"engagement z18 {fid}", sc, (1 if quick else 4) * period, rev)
-        eng[fid] = row
+    t_eng = (1 if quick else 4) * rev / 18
+    for key, fid, rob in (
+        ("lumped", "lumped", "joint"),
+        ("clearance", "clearance", "joint"),
+        ("clearance/rollers-lumped", "clearance", "lumped"),
+    ):
+        sc = jc.scenes.engagement(
+            "08B", 18, speed_rpm=1000, n_entry=8, fidelity=fid, rollers_on_bush=rob
+        )
+        eng[key], _ = case(f"engagement z18 {key}", sc, t_eng, rev)
     results["engagement"] = eng
-    lum, cle = eng["lumped"], eng["clearance"]
-    results["engagement_fidelity"] = {
-        "peak_clearance_vs_lumped": cle["peak_force_N"] / lum["peak_force_N"] - 1,
-        "cost_clearance_vs_lumped": cle["wall_per_rev_s"] / lum["wall_per_rev_s"],
-    }
-    ef = results["engagement_fidelity"]
-    print(
-        f"  engagement, clearance vs lumped: peak {ef['peak_clearance_vs_lumped']:+.1%}, "
-        f"cost ×{ef['cost_clearance_vs_lumped']:.1f} (both start settled)"
+    # both start settled; the second: roller fixed to its bush vs on its own joint
+    results["engagement_fidelity"] = _compare(
+        "clearance vs lumped", eng["clearance"], eng["lumped"]
     )
-    # the roller fixed to its bush vs the roller on its own clearance joint (both settled)
-    sc = jc.scenes.engagement(
-        "08B", 18, speed_rpm=1000, n_entry=8, fidelity="clearance", rollers_on_bush="lumped"
-    )
-    row, _ = case(
-        "engagement z18 clearance/rollers-lumped", sc, (1 if quick else 4) * (rev / 18), rev
-    )
-    eng["clearance/rollers-lumped"] = row
-    results["engagement_rollers"] = {
-        "peak_rollers_lumped_vs_joint": row["peak_force_N"] / cle["peak_force_N"] - 1,
-        "cost_rollers_lumped_vs_joint": row["wall_per_rev_s"] / cle["wall_per_rev_s"],
-    }
-    er = results["engagement_rollers"]
-    print(
-        f"  engagement, roller fixed to bush vs on its joint: peak "
-        f"{er['peak_rollers_lumped_vs_joint']:+.1%}, cost ×{er['cost_rollers_lumped_vs_joint']:.2f}"
+    results["engagement_rollers"] = _compare(
+        "roller fixed to bush vs on its joint", eng["clearance/rollers-lumped"], eng["clearance"]
     )
     print("compile time of simulate against link count:")
     results["compile"] = compile_times(
