@@ -120,7 +120,8 @@ def _link_frames(rollers: np.ndarray, vel: np.ndarray, closed: bool):
     mid = 0.5 * (cur + nxt)
     phi = np.arctan2(d[:, 1], d[:, 0])
     vmid = 0.5 * (cuv + nxv)
-    omega = np.cross(d, nxv - cuv) / np.sum(d * d, axis=1)
+    dv = nxv - cuv
+    omega = (d[:, 0] * dv[:, 1] - d[:, 1] * dv[:, 0]) / np.sum(d * d, axis=1)
     return np.column_stack([mid, phi]), np.column_stack([vmid, omega])
 
 

@@ -39,7 +39,7 @@ def engagement(
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,
-    settle: bool = True,
+    settle: bool | None = None,
     link_damping: float = 0.05,
     span_stiffness: float | None = None,
 ) -> Scene:
@@ -51,8 +51,10 @@ def engagement(
     one after the other, one per tooth period 2π/(zω); simulate up to about
     ``n_entry`` tooth periods. Each free span end runs on a guide moving at the chain's mean
     speed, pulled by its tension through a soft spring (``span_stiffness``, default 1/50 of
-    a link's: the rest of a 50-link span). With ``settle`` (default) the strand starts from
-    its static equilibrium on the held sprocket (:func:`~jaxchain.scenes.equilibrate`).
+    a link's: the rest of a 50-link span). With ``settle`` (default for "lumped") the
+    strand starts from its static equilibrium on the held sprocket
+    (:func:`~jaxchain.scenes.equilibrate`); the "clearance" strand's statics is not yet
+    robust, so by default it starts from the layout.
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = resolve_chain(chain)
@@ -128,4 +130,6 @@ def engagement(
         impact_speed=impact_speed,
         fidelity=fidelity,
     )
+    if settle is None:
+        settle = fidelity == "lumped"
     return equilibrate(scene) if settle else scene

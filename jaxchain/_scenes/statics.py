@@ -13,14 +13,14 @@ unknowns have no stiffness yet:
    chain settles into contact;
 2. then the driven axes are set free under a take-up force (each span then carries half
    of it) and the driven sprockets' angles under their full load torque;
-3. open strands: anchor guides are moved by the strand's slide until each pulls with
-   exactly its tension.
+3. open strands: inside the residual each anchor's guide stays level with its body, so
+   the anchor pulls with exactly its tension (its spring only holds the line across).
 
 A vanishing spring to the start (1e-6 in scaled units) keeps bodies floating in free
 play (a roller inside its bush clearance) from making the problem rank-deficient;
 convergence is judged on the true forces without it, and a solve that moves anything by
-a pitch or more is rejected. Lumped chains settle reliably; closed clearance chains
-(joint free play on top of the seats') do not yet.
+a pitch or more is rejected. Lumped chains settle; clearance chains (joint free play on
+top of the seats') do not yet, and their scenes start from the layout by default.
 """
 
 from __future__ import annotations
@@ -65,6 +65,10 @@ def _residual(x, args):
     scene, pitch, force_scale, rot_mask, free, take_up, x_pin, reg = args
     n, ns = scene.n_bodies, len(scene.sprockets)
     sc, y = _unpack(scene, x, pitch)
+    if sc.anchors is not None:  # guides level with their bodies: anchors pull with exactly T
+        an = sc.anchors
+        along = jnp.sum((y.q[an.body, :2] - an.origin) * an.direction, -1)
+        sc = eqx.tree_at(lambda s: s.anchors.origin, sc, an.origin + along[:, None] * an.direction)
     fr = forces(0.0, y, sc)
     pin = x - x_pin
     res = fr.body / force_scale
@@ -99,12 +103,6 @@ def _take_up_guess(scene, x, push, pitch):
         xb = x[: 3 * n].reshape(n, 3).at[:, :2].add((shift / pitch) * along[:, None] * e)
         x = x.at[: 3 * n].set(xb.reshape(-1)).at[3 * n + ns + k].set(shift / pitch)
     return x
-
-
-def _anchor_slip(scene: Scene, q) -> jax.Array:
-    """How far each anchored body sits from its guide along the span [m]."""
-    an = scene.anchors
-    return jnp.sum((q[an.body, :2] - an.origin) * an.direction, -1)
 
 
 def _rotating_bodies(scene: Scene) -> jax.Array:
@@ -173,21 +171,7 @@ def equilibrate(
     if bool(jnp.any(driven)):
         x = _take_up_guess(scene, x, push, pitch)
         x, _, _ = _solve(scene, fs, max_steps, x, jnp.zeros(ns, bool), jnp.zeros(ns))
-    # An anchor is a spring to a guide: the strand settles by sliding a little round the
-    # sprocket, which would change the anchor's pull. Move the guides by that slide and
-    # solve again (warm start) until every anchor pulls with exactly its tension.
-    for _ in range(8):
-        x, result, worst = _solve(scene, fs, max_steps, x, driven, push)
-        if scene.anchors is None:
-            break
-        slip = _anchor_slip(scene, base.q0 + x[: 3 * n].reshape(n, 3) * pitch)
-        if float(jnp.max(jnp.abs(slip * scene.anchors.stiffness))) <= tolerance * force_scale:
-            break
-        scene = eqx.tree_at(
-            lambda sc: sc.anchors.origin,
-            scene,
-            scene.anchors.origin + slip[:, None] * scene.anchors.direction,
-        )
+    x, result, worst = _solve(scene, fs, max_steps, x, driven, push)
     moved = float(jnp.max(jnp.abs(x[: 3 * n].reshape(n, 3)[:, :2]))) if n else 0.0
     shifted = float(jnp.max(jnp.abs(x[3 * n + ns :])))
     if (
@@ -205,6 +189,12 @@ def equilibrate(
     if scene.anchors is not None:
         scene = eqx.tree_at(lambda sc: sc.anchors.speed, scene, moving.anchors.speed)
     settled, y = _unpack(scene, x, pitch)
+    if settled.anchors is not None:  # guides level with their bodies: each pulls exactly T
+        an = settled.anchors
+        along = jnp.sum((y.q[an.body, :2] - an.origin) * an.direction, -1)
+        settled = eqx.tree_at(
+            lambda sc: sc.anchors.origin, settled, an.origin + along[:, None] * an.direction
+        )
     settled = eqx.tree_at(lambda sc: sc.q0, settled, y.q)
     for k in range(ns):
         settled = eqx.tree_at(lambda sc, k=k: sc.sprockets[k].angle0, settled, y.theta[k])

@@ -1,0 +1,18 @@
+"""The benchmark scripts run end to end (slow: `python -m pytest -m slow`)."""
+
+import json
+
+import pytest
+
+
+@pytest.mark.slow
+def test_dynamics_benchmark_quick(tmp_path):
+    from benchmarks.dynamics import main
+
+    main(["--quick", "--out", str(tmp_path)])
+    res = json.loads((tmp_path / "dynamics.json").read_text())
+    assert {"engagement", "compile", "fidelity", "targets"} <= set(res)
+    assert res["engagement_rollers"]["cost_ratio"] > 0
+    for row in res["engagement"].values():
+        assert row["steps"] > 0 and row["result"] == "successful"
+    assert (tmp_path / "dynamics.png").stat().st_size > 10_000
