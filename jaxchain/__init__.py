@@ -6,7 +6,7 @@ Enable float64 yourself (the library never changes global JAX configuration)::
     jax.config.update("jax_enable_x64", True)
 """
 
-from . import contact as contact, scenes as scenes
+from . import contact as contact, design as design, scenes as scenes
 from ._chain import ChainSpec as ChainSpec
 from ._dynamics import DriveState as DriveState, energy as energy, vector_field as vector_field
 from ._gap import (

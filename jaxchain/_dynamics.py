@@ -18,7 +18,7 @@ from ._gap import gap_contact
 from ._numerics import cross2, safe_norm, safe_normalize
 from ._scene import LinkSprings, Scene
 
-__all__ = ["DriveState", "initial_state", "vector_field", "outputs", "Forces", "energy"]
+__all__ = ["DriveState", "initial_state", "vector_field", "rates", "outputs", "Forces", "energy"]
 
 
 class DriveState(NamedTuple):
@@ -152,7 +152,11 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
 
 def vector_field(t, y: DriveState, scene: Scene) -> DriveState:
     """dy/dt: the equations of motion of the drive (pure; diffrax's ``ODETerm`` target)."""
-    fr = forces(t, y, scene)
+    return rates(t, y, scene, forces(t, y, scene))
+
+
+def rates(t, y: DriveState, scene: Scene, fr: Forces) -> DriveState:
+    """dy/dt from already computed forces (for fields that also use the forces)."""
     inv = jnp.stack([1 / scene.mass, 1 / scene.mass, 1 / scene.inertia], -1)
     acc = fr.body * inv
     dtheta, domega = [], []

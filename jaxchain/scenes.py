@@ -16,4 +16,4 @@ from ._scenes.layout import (
     strand_layout as strand_layout,
     transport_velocity as transport_velocity,
 )
-from ._scenes.statics import equilibrate as equilibrate
+from ._scenes.statics import equilibrate as equilibrate, resettle as resettle

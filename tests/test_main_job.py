@@ -1,19 +1,84 @@
-"""The main job runs end to end on its default and its numbers are physical."""
+"""The main job (`python -m optimize`): runs on its default scene in fast mode, writes its
+results folder, survives an interrupt (--resume loses no iteration), rejects bad input."""
 
 import json
 
+import pytest
+
 import jaxchain as jc
-from optimize.__main__ import main
+from jaxchain._design import ProfileObjective
+from optimize.__main__ import main, parse
+from optimize.demo import run as demo_run
 
 
-def test_main_job_default_runs(tmp_path):
-    main(["--out", str(tmp_path)])
-    res = json.loads((tmp_path / "demo.json").read_text())
-    assert (tmp_path / "tooth_forms.png").stat().st_size > 10_000
-    assert (tmp_path / "seat_impact.png").stat().st_size > 10_000
-    # the rebound of the free roller is the closed-form restitution of the law it used
-    # (Flores / Johnson-with-Flores damping, e = 0.8)
+def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
+    out = tmp_path / "run"
+    real = ProfileObjective.value_and_grad
+    calls = []
+
+    def interrupted(self, u):
+        calls.append(1)
+        if len(calls) == 2:  # Ctrl-C during the second iteration
+            raise KeyboardInterrupt
+        return real(self, u)
+
+    monkeypatch.setattr(ProfileObjective, "value_and_grad", interrupted)
+    with pytest.raises(SystemExit) as e:
+        main(["--fast", "--quiet", "--out", str(out)])
+    assert e.value.code == 130
+    ck = json.loads((out / "checkpoint.json").read_text())
+    assert len(ck["history"]) == 1  # the finished iteration was kept
+    first = ck["history"][0]
+    monkeypatch.setattr(ProfileObjective, "value_and_grad", real)
+
+    res = main(["--fast", "--quiet", "--out", str(out), "--resume"])
+    hist = res["history"]
+    assert [h["iteration"] for h in hist] == [0, 1, 2]
+    assert hist[0] == first  # resumed, not restarted
+    saved = json.loads((out / "results.json").read_text())
+    for key in (
+        "settings",
+        "versions",
+        "baselines",
+        "optimized",
+        "remeasured",
+        "history",
+        "gradient_free",
+        "timing",
+        "reduction_vs_better_baseline",
+        "soft_peak_bias",
+    ):
+        assert key in saved
+    for name in ("profile.png", "forces.png", "objective.png"):
+        assert (out / name).stat().st_size > 10_000
+    # the optimized design is inside the ISO 606 box
+    lim = jc.iso606_limits(jc.ChainSpec.iso606("08B"), 18)
+    for name, value in saved["optimized"]["params"].items():
+        assert lim[name][0] <= value <= lim[name][1]
+    # re-measured with both laws, sharp peaks of physical size
+    for design in saved["remeasured"].values():
+        for law in ("johnson", "hertz"):
+            assert 100 < design[law]["peak_N"] < 20_000
+    assert saved["timing"]["grad_over_forward"] > 1.0
+
+    # a resume with other physics is refused with the differing settings named
+    with pytest.raises(SystemExit, match="speed_rpm"):
+        main(["--fast", "--quiet", "--out", str(out), "--resume", "--speed", "900"])
+
+
+def test_bad_options_are_explained():
+    with pytest.raises(SystemExit, match="chain"):
+        main(["--chain", "99Z", "--fast", "--quiet"])
+    with pytest.raises(SystemExit, match="warmup"):
+        main(["--periods", "2", "--warmup", "2", "--quiet"])
+    with pytest.raises(SystemExit, match="optax optimizer"):
+        main(["--optimizer", "nonsense", "--quiet"])
+    s, _ = parse(["--ensemble", "0.9,1,1.1"])
+    assert s.ensemble == (0.9, 1.0, 1.1)
+
+
+def test_foundation_demo_still_runs(tmp_path):
+    res = demo_run(tmp_path, "08B", 18, 0.5)
     e_star = jc.contact.hysteresis_restitution(1.6 * (1 - 0.8) / 0.8)
     for case in res["seat_impact"].values():
         assert abs(case["rebound_ratio"] - e_star) < 2e-3
-        assert 100 < case["peak_force_N"] < 5000

@@ -31,11 +31,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import optimistix as optx
+from jaxtyping import ArrayLike
 
 from .._dynamics import DriveState, forces
 from .._scene import Scene
 
-__all__ = ["equilibrate"]
+__all__ = ["equilibrate", "resettle"]
 
 
 def _unpack(scene, x, pitch):
@@ -149,8 +150,7 @@ def equilibrate(
             force (tension, take-up/2 or load torque over pitch radius).
     """
     moving = scene
-    if scene.anchors is not None:  # at rest: guides still (no damper force from their speed)
-        scene = eqx.tree_at(lambda sc: sc.anchors.speed, scene, jnp.zeros_like(scene.anchors.speed))
+    scene = _at_rest(scene)
     ns = len(scene.sprockets)
     driven = jnp.array([s.driven for s in scene.sprockets])
     push = jnp.where(driven, take_up, 0.0)
@@ -186,8 +186,13 @@ def equilibrate(
             stacklevel=2,
         )
         return base
-    if scene.anchors is not None:
-        scene = eqx.tree_at(lambda sc: sc.anchors.speed, scene, moving.anchors.speed)
+    return _finish(moving, x)
+
+
+def _finish(scene: Scene, x) -> Scene:
+    """``scene`` moved by the unknowns ``x`` (anchors' guides level with their bodies)."""
+    pitch = scene.sprockets[0].profile.pitch
+    ns = len(scene.sprockets)
     settled, y = _unpack(scene, x, pitch)
     if settled.anchors is not None:  # guides level with their bodies: each pulls exactly T
         an = settled.anchors
@@ -199,3 +204,38 @@ def equilibrate(
     for k in range(ns):
         settled = eqx.tree_at(lambda sc, k=k: sc.sprockets[k].angle0, settled, y.theta[k])
     return settled
+
+
+def _at_rest(scene: Scene) -> Scene:
+    if scene.anchors is None:  # at rest: guides still (no damper force from their speed)
+        return scene
+    return eqx.tree_at(lambda sc: sc.anchors.speed, scene, jnp.zeros_like(scene.anchors.speed))
+
+
+def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
+    """One Newton step of the statics from ``scene``'s current start: the equilibrium of a
+    settled scene whose parameters (a tooth profile, a tension) were changed a little.
+
+    Differentiable, with the implicit-function derivative of the equilibrium: the step
+    is ``−J⁻¹ r`` with the residual ``r`` taken through the changed parameters and the
+    Jacobian ``J`` held constant, so at the parameters the scene was settled for the
+    step is zero and its derivative is ``−J⁻¹ ∂r/∂parameters`` — exactly how the static
+    equilibrium moves. Use it inside a differentiated function on a scene settled by
+    :func:`equilibrate` (with the same ``take_up``) at the current parameter values.
+    Works traced (inside ``jit``/``grad``/``vmap``).
+    """
+    rest = _at_rest(scene)
+    ns, n = len(scene.sprockets), scene.n_bodies
+    pitch = scene.sprockets[0].profile.pitch
+    driven = jnp.array([s.driven for s in scene.sprockets])
+    push = jnp.where(driven, jnp.asarray(take_up, dtype=float), 0.0)
+    scale = [jnp.asarray(1.0), jnp.max(push) / 2]
+    if scene.anchors is not None:
+        scale.append(jnp.max(scene.anchors.tension))
+    scale += [s.load_torque / s.profile.pitch_radius for s in scene.sprockets]
+    fs = jax.lax.stop_gradient(jnp.max(jnp.stack([jnp.asarray(v, float) for v in scale])))
+    x0 = jnp.zeros(3 * n + 2 * ns, dtype=scene.q0.dtype)
+    args = (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
+    r = _residual(x0, args)
+    jac = jax.lax.stop_gradient(jax.jacfwd(_residual)(x0, args))
+    return _finish(scene, -jnp.linalg.solve(jac, r))

@@ -1,0 +1,471 @@
+"""The optimization run: optax loop with checkpoint/resume, gradient-free baseline,
+independent re-measurement, results folder (JSON + figures)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+
+import jaxchain as jc
+
+from .problem import Problem, Settings, iso_forms, make_problem, profile_values, remeasure
+
+CHECKPOINT = "checkpoint.json"
+RESULTS = "results.json"
+
+
+# ---------------------------------------------------------------------- files
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` so a reader (or a resume after a kill) sees either the
+    old file or the new one, never half of one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_figure(fig, path: Path) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(fd)
+    fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    os.replace(tmp, path)
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items() if not isinstance(v, np.ndarray)}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
+def versions() -> dict:
+    import diffrax
+    import equinox
+
+    return {
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "jax": jax.__version__,
+        "jax_backend": jax.default_backend(),
+        "diffrax": diffrax.__version__,
+        "equinox": equinox.__version__,
+        "optax": optax.__version__,
+        "jaxchain": getattr(jc, "__version__", "0.1.0"),
+    }
+
+
+# ---------------------------------------------------------------------- checkpoint
+def _state_to_json(state) -> list:
+    return [np.asarray(leaf).tolist() for leaf in jax.tree_util.tree_leaves(state)]
+
+
+def _state_from_json(template, leaves):
+    flat, treedef = jax.tree_util.tree_flatten(template)
+    if len(flat) != len(leaves):
+        raise ValueError("checkpoint does not match this optimizer's state; start afresh")
+    return jax.tree_util.tree_unflatten(
+        treedef,
+        [jnp.asarray(v, dtype=jnp.asarray(t).dtype) for v, t in zip(leaves, flat, strict=True)],
+    )
+
+
+def load_checkpoint(out: Path, settings: Settings) -> dict | None:
+    path = out / CHECKPOINT
+    if not path.exists():
+        return None
+    ck = json.loads(path.read_text())
+    mine, theirs = settings.as_dict(), dict(ck["settings"])
+    mine.pop("iterations"), theirs.pop("iterations")  # a resume may extend the run
+    diff = {k: (theirs.get(k), v) for k, v in mine.items() if theirs.get(k) != v}
+    if diff:
+        raise ValueError(
+            f"--resume: the checkpoint in {out} was made with other settings "
+            f"{ {k: f'{a} (checkpoint) vs {b}' for k, (a, b) in diff.items()} }; "
+            "use the same options or another --out"
+        )
+    return ck
+
+
+# ---------------------------------------------------------------------- progress
+class Progress:
+    """tqdm bar on a terminal; plain lines otherwise (logs, notebooks' captured output)."""
+
+    def __init__(self, total: int, start: int, quiet: bool):
+        self.quiet = quiet
+        self.bar = None
+        if not quiet:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=total, initial=start, desc="optimize", unit="it")
+
+    def update(self, k: int, value: float, gnorm: float, sims: int) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(f"peak~{value:.1f} N |grad| {gnorm:.3g} N sims {sims}")
+            self.bar.update(1)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def log(msg: str, quiet: bool = False) -> None:
+    if not quiet:
+        print(msg, file=sys.stderr, flush=True)
+
+
+# ---------------------------------------------------------------------- the run
+def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = False) -> dict:
+    """Optimize, re-measure, write ``out``/results.json and figures; returns the results."""
+    t_wall = time.perf_counter()
+    out = Path(out)
+    problem = make_problem(settings)
+    out.mkdir(parents=True, exist_ok=True)
+    ck = load_checkpoint(out, settings) if resume else None
+    if resume and ck is None:
+        log(f"--resume: no checkpoint in {out}; starting afresh", quiet)
+    forms = iso_forms(problem)
+    timing = dict(ck["timing"]) if ck else {}
+
+    # 1. baselines: the ISO forms, re-measured sharply (also fixes the objective's scale)
+    if ck:
+        base = ck["baselines"]
+    else:
+        log("re-measuring the ISO 606 baselines (min, max, mid forms) ...", quiet)
+        t = time.perf_counter()
+        base = {}
+        for form in ("min", "max", "mid"):
+            m = remeasure(problem, forms[form])
+            base[form] = {"params": profile_values(forms[form]), "peak_N": m["peak_N"]}
+        timing["baselines_s"] = time.perf_counter() - t
+    better = min(("min", "max"), key=lambda f: base[f]["peak_N"])
+    reference = max(base[f]["peak_N"] for f in ("min", "max", "mid"))
+    objective = problem.make_objective(reference)
+
+    # 2. the optax loop, from the middle of the ISO box (u = 0)
+    opt = getattr(optax, settings.optimizer)(settings.learning_rate)
+    u = jnp.zeros(4)
+    state = opt.init(u)
+    history: list[dict] = []
+    start = 0
+    if ck:
+        u = jnp.asarray(ck["u"])
+        state = _state_from_json(state, ck["opt_state"])
+        history = ck["history"]
+        start = len(history)
+        objective.evaluations = ck["evaluations"]
+        log(f"resuming after iteration {start} of {settings.iterations}", quiet)
+
+    def checkpoint():
+        write_atomic(
+            out / CHECKPOINT,
+            json.dumps(
+                {
+                    "settings": settings.as_dict(),
+                    "u": np.asarray(u).tolist(),
+                    "opt_state": _state_to_json(state),
+                    "history": history,
+                    "baselines": base,
+                    "evaluations": objective.evaluations,
+                    "timing": timing,
+                }
+            ),
+        )
+
+    if not ck:
+        checkpoint()
+    bar = Progress(settings.iterations, start, quiet)
+    try:
+        for k in range(start, settings.iterations):
+            t = time.perf_counter()
+            value, grad, members = objective.value_and_grad(u)
+            dt = time.perf_counter() - t
+            bad = failures(members)
+            if not np.isfinite(float(value)) or not np.all(np.isfinite(np.asarray(grad))):
+                raise RuntimeError(
+                    f"iteration {k}: non-finite objective or gradient at u={np.asarray(u)} "
+                    f"(solver: {[m for m in bad if m] or 'successful'}); lower --dt or "
+                    "--learning-rate"
+                )
+            if any(bad):
+                raise RuntimeError(f"iteration {k}: the simulation failed: {bad[0]}")
+            gnorm = float(jnp.linalg.norm(grad))
+            history.append(
+                {
+                    "iteration": k,
+                    "objective_N": float(value),
+                    "grad_norm_N": gnorm,
+                    "u": np.asarray(u).tolist(),
+                    "params": profile_values(problem.space.profile(u)),
+                    "fraction": np.asarray(problem.space.fraction(u)).tolist(),
+                    "seconds": dt,
+                    "simulations": objective.evaluations,
+                }
+            )
+            updates, state = opt.update(grad, state, u)
+            u = optax.apply_updates(u, updates)
+            checkpoint()
+            bar.update(k, float(value), gnorm, objective.evaluations)
+    except KeyboardInterrupt:
+        bar.close()
+        log(
+            f"interrupted: {len(history)} iterations are in {out / CHECKPOINT}; "
+            "continue with the same command and --resume",
+            quiet,
+        )
+        raise
+    bar.close()
+    timing["optimization_s"] = timing.get("optimization_s", 0.0) + sum(
+        h["seconds"] for h in history[start:]
+    )
+    best = min(history, key=lambda h: h["objective_N"])
+    u_best = jnp.asarray(best["u"])
+    optimized = problem.space.profile(u_best)
+
+    # 3. cost of a gradient: forward alone vs forward + reverse, at the optimum (compiled)
+    objective.value(u_best)[0].block_until_ready()  # compile the forward-only function
+    t = time.perf_counter()
+    objective.value(u_best)[0].block_until_ready()
+    t_fwd = time.perf_counter() - t
+    t = time.perf_counter()
+    objective.value_and_grad(u_best)[1].block_until_ready()
+    t_grad = time.perf_counter() - t
+    timing.update(forward_s=t_fwd, value_and_grad_s=t_grad, grad_over_forward=t_grad / t_fwd)
+
+    # 4. gradient-free baseline: Nelder–Mead on the same objective (forward solves only)
+    nm = gradient_free(problem, best["objective_N"], settings.baseline_budget, quiet)
+
+    # 5. independent re-measurement: Dopri8, tight tolerance, sharp peak, two laws
+    rt = settings.remeasure_rtol
+    log(f"re-measuring: Dopri8 at rtol {rt:.0e}, sharp peak, Johnson and Hertz laws ...", quiet)
+    t = time.perf_counter()
+    checks = {}
+    traces = {}
+    for name, prof in [("optimized", optimized), (f"iso_{better}", forms[better])]:
+        for law in ("johnson", "hertz"):
+            m = remeasure(problem, prof, law=law)
+            checks.setdefault(name, {})[law] = {
+                "peak_N": m["peak_N"],
+                "members": [_jsonable(r) for r in m["members"]],
+            }
+            if law == "johnson":
+                traces[name] = m["members"][0]
+    other = "max" if better == "min" else "min"
+    hertz_other = remeasure(problem, forms[other], law="hertz")["peak_N"]
+    checks[f"iso_{other}"] = {"hertz": {"peak_N": hertz_other}}
+    checks[f"iso_{other}"]["johnson"] = {"peak_N": base[other]["peak_N"]}
+    timing["remeasure_s"] = time.perf_counter() - t
+
+    gain = {
+        law: 1
+        - checks["optimized"][law]["peak_N"]
+        / min(
+            checks["iso_min" if better == "min" else "iso_max"][law]["peak_N"],
+            checks[f"iso_{other}"][law]["peak_N"],
+        )
+        for law in ("johnson", "hertz")
+    }
+    soft_bias = best["objective_N"] / checks["optimized"]["johnson"]["peak_N"] - 1
+    timing["total_s"] = timing.get("total_s", 0.0) + time.perf_counter() - t_wall
+    results = {
+        "settings": settings.as_dict(),
+        "versions": versions(),
+        "design_space": {
+            "parameters": list(jc.design.PARAMETERS),
+            "lower": np.asarray(problem.space.lower).tolist(),
+            "upper": np.asarray(problem.space.upper).tolist(),
+        },
+        "window_s": [problem.t_start, problem.t1],
+        "reference_N": reference,
+        "temperature_N": settings.temperature * reference,
+        "baselines": base,
+        "better_baseline": f"iso_{better}",
+        "optimized": {
+            "params": profile_values(optimized),
+            "fraction_of_iso_range": np.asarray(problem.space.fraction(u_best)).tolist(),
+            "u": np.asarray(u_best).tolist(),
+            "iteration": best["iteration"],
+            "objective_N": best["objective_N"],
+        },
+        "remeasured": checks,
+        "reduction_vs_better_baseline": gain,
+        "soft_peak_bias": soft_bias,
+        "history": history,
+        "gradient_free": nm,
+        "timing": timing,
+    }
+    write_atomic(out / RESULTS, json.dumps(_jsonable(results), indent=1))
+    figures(problem, out, forms, optimized, better, history, nm, traces)
+    log(summary(results), quiet)
+    return results
+
+
+def failures(members) -> list[str]:
+    """Messages of the ensemble members whose solve did not succeed ("" for those that did)."""
+    codes = np.atleast_1d(np.asarray(members.result._value))
+    return [jc.Result._index_to_message[int(c)] for c in codes]
+
+
+def gradient_free(problem: Problem, target: float, budget: int, quiet: bool) -> dict:
+    """Nelder–Mead (SciPy) on the same objective from the same start: simulations it needs
+    to reach ``target`` (the gradient run's best), within ``budget`` simulations."""
+    if budget <= 0:
+        return {"method": "Nelder-Mead", "skipped": True}
+    from scipy.optimize import minimize
+
+    obj = problem.objective
+    n0 = obj.evaluations
+    best, trace = math.inf, []
+
+    def f(u):
+        nonlocal best
+        value, members = obj.value(jnp.asarray(u))
+        value = float(value)
+        if not np.isfinite(value) or any(failures(members)):
+            value = 10 * problem.reference  # a failed solve is a bad point, not a crash
+        best = min(best, value)
+        trace.append(best)
+        return value
+
+    log(f"gradient-free baseline: Nelder–Mead, up to {budget} simulations ...", quiet)
+    t = time.perf_counter()
+    simplex = np.vstack([np.zeros(4), np.eye(4)])
+    members = len(problem.settings.ensemble)  # simulations per objective evaluation
+    options = {"maxfev": max(1, budget // members), "initial_simplex": simplex}
+    res = minimize(f, np.zeros(4), method="Nelder-Mead", options=options)
+    reached = next(((i + 1) * members for i, v in enumerate(trace) if v <= target), None)
+    return {
+        "method": "Nelder-Mead (scipy), simplex of unit steps in u",
+        "budget": budget,
+        "simulations": obj.evaluations - n0,
+        "best_N": best,
+        "best_u": np.asarray(res.x).tolist(),
+        "target_N": target,
+        "simulations_to_target": reached,
+        "best_so_far_N": trace,
+        "simulations_per_evaluation": members,
+        "seconds": time.perf_counter() - t,
+    }
+
+
+def summary(r: dict) -> str:
+    b = r["better_baseline"]
+    lines = [
+        "",
+        "ISO 606 baselines (sharp peak, re-measured): "
+        + ", ".join(f"{f} form {r['baselines'][f]['peak_N']:.0f} N" for f in ("min", "max", "mid")),
+        f"optimized (iteration {r['optimized']['iteration']}): "
+        + ", ".join(f"{k} {v:.6g}" for k, v in r["optimized"]["params"].items()),
+    ]
+    for law in ("johnson", "hertz"):
+        lines.append(
+            f"  {law:8s} law: optimized {r['remeasured']['optimized'][law]['peak_N']:.0f} N vs "
+            f"{b} {r['remeasured'][b][law]['peak_N']:.0f} N -> "
+            f"{100 * r['reduction_vs_better_baseline'][law]:.1f} % lower than the better ISO form"
+        )
+    nm = r["gradient_free"]
+    if not nm.get("skipped"):
+        lines.append(
+            f"Nelder–Mead: best {nm['best_N']:.0f} N in {nm['simulations']} simulations; reached"
+            f" the gradient run's {nm['target_N']:.0f} N after {nm['simulations_to_target']}"
+        )
+    t = r["timing"]
+    lines.append(
+        f"gradient / forward cost {t['grad_over_forward']:.2f}x; total wall {t['total_s']:.0f} s"
+    )
+    return "\n".join(lines)
+
+
+def figures(problem, out, forms, optimized, better, history, nm, traces) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    # profile before/after on the ISO limits
+    fig, ax = plt.subplots(figsize=(6, 6))
+    for form, style in [("min", ":"), ("max", "--")]:
+        xy = forms[form].outline(n=80)
+        ax.plot(xy[:, 0] * 1e3, xy[:, 1] * 1e3, "k" + style, lw=1, label=f"ISO 606 {form} form")
+    xy = forms[better].outline(n=80)
+    ax.plot(
+        xy[:, 0] * 1e3, xy[:, 1] * 1e3, color="tab:blue", lw=1.5, label=f"baseline (ISO {better})"
+    )
+    xy = optimized.outline(n=80)
+    ax.plot(xy[:, 0] * 1e3, xy[:, 1] * 1e3, color="tab:red", lw=2, label="optimized")
+    c = np.asarray(optimized.geometry().seat_centre) * 1e3
+    r = float(optimized.roller_radius) * 1e3
+    th = np.linspace(0, 2 * np.pi, 100)
+    ax.plot(c[0] + r * np.cos(th), c[1] + r * np.sin(th), color="0.6", lw=1, label="roller")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [mm] (sprocket frame)")
+    ax.set_ylabel("y [mm]")
+    ax.set_title("Tooth gap: optimized vs ISO 606 limits")
+    ax.legend(fontsize=8)
+    save_figure(fig, out / "profile.png")
+    plt.close(fig)
+
+    # contact force histories
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for name, color in [(f"iso_{better}", "tab:blue"), ("optimized", "tab:red")]:
+        tr = traces[name]
+        ax.plot(
+            tr["ts"] * 1e3,
+            tr["force"],
+            color=color,
+            lw=1,
+            label=f"{name}: peak {tr['peak_N']:.0f} N",
+        )
+    ax.set_xlabel("time [ms]")
+    ax.set_ylabel("largest roller/tooth force [N]")
+    ax.set_title("Re-measured (Dopri8, tight tolerance) in the objective's window")
+    ax.legend()
+    save_figure(fig, out / "forces.png")
+    plt.close(fig)
+
+    # objective history
+    fig, ax = plt.subplots(figsize=(7, 4))
+    sims = [h["simulations"] for h in history]
+    ax.plot(
+        sims,
+        [h["objective_N"] for h in history],
+        "o-",
+        color="tab:red",
+        ms=3,
+        label="gradient (optax), per value+gradient",
+    )
+    if not nm.get("skipped"):
+        ax.plot(
+            nm["simulations_per_evaluation"] * np.arange(1, len(nm["best_so_far_N"]) + 1),
+            nm["best_so_far_N"],
+            color="0.4",
+            label="Nelder–Mead, best so far",
+        )
+    ax.set_xlabel("simulations")
+    ax.set_ylabel("smooth peak force [N]")
+    ax.set_title("Objective history")
+    ax.legend()
+    save_figure(fig, out / "objective.png")
+    plt.close(fig)
