@@ -16,3 +16,18 @@ def test_dynamics_benchmark_quick(tmp_path):
     for row in res["engagement"].values():
         assert row["steps"] > 0 and row["result"] == "successful"
     assert (tmp_path / "dynamics.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_stability_benchmark_quick(tmp_path):
+    from benchmarks.stability import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    rows = res["map"]["rows"]
+    assert {r["method"] for r in rows} == {"Euler", "Heun", "Tsit5"}
+    assert all(r["measured_dt"] for r in rows)
+    # the measured boundary is the linear bound of the scene's modes (Heun, Tsit5)
+    assert all(
+        0.8 < r["measured_over_horizon_bound"] < 1.3 for r in rows if r["method"] != "Euler"
+    )
+    assert (tmp_path / "stability.png").stat().st_size > 10_000
