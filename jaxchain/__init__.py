@@ -9,6 +9,10 @@ Enable float64 yourself (the library never changes global JAX configuration)::
 from . import contact as contact, design as design, scenes as scenes
 from ._chain import ChainSpec as ChainSpec
 from ._dynamics import DriveState as DriveState, energy as energy, vector_field as vector_field
+from ._ensemble import (
+    EnsembleSolution as EnsembleSolution,
+    simulate_ensemble as simulate_ensemble,
+)
 from ._gap import (
     gap_contact as gap_contact,
     nearest_gap as nearest_gap,

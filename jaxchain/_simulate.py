@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
@@ -203,6 +204,72 @@ def simulate(
     Jitted once per scene *structure*: a second call with new array values (speeds,
     profiles, loads) does not retrace.
     """
+    scene, args = _prepare(
+        scene,
+        t1,
+        t0=t0,
+        solver=solver,
+        rtol=rtol,
+        atol=atol,
+        dt0=dt0,
+        max_steps=max_steps,
+        ts=ts,
+        n_save=n_save,
+        stepsize_controller=stepsize_controller,
+        adjoint=adjoint,
+        progress=progress,
+        caller="simulate",
+    )
+    ts = args.ts
+    saved, peak, result, stats, y1 = _solve(scene, *args)
+    if throw:
+        if isinstance(peak, jax.core.Tracer):  # inside the caller's jit/grad: runtime error
+            saved = result.error_if(saved, result != Result.successful)
+        elif result != Result.successful:
+            raise RuntimeError(f"simulate failed: {Result[result]}")
+    return Solution(
+        ts=ts,
+        peak_contact_force=peak,
+        result=result,
+        stats=stats,
+        y1=y1,
+        **saved,
+    )
+
+
+class _SolveArgs(NamedTuple):
+    """Everything ``_solve`` takes besides the scene, in its argument order."""
+
+    t0: Array
+    t1: Array
+    ts: Array
+    solver: diffrax.AbstractSolver
+    controller: diffrax.AbstractStepSizeController
+    dt0: Array | None
+    max_steps: int
+    adjoint: diffrax.AbstractAdjoint
+    meter: diffrax.AbstractProgressMeter
+
+
+def _prepare(
+    scene: Scene,
+    t1: ArrayLike,
+    *,
+    t0: ArrayLike,
+    solver: diffrax.AbstractSolver | None,
+    rtol: float,
+    atol: float,
+    dt0: ArrayLike | None,
+    max_steps: int,
+    ts: ArrayLike | None,
+    n_save: int,
+    stepsize_controller: diffrax.AbstractStepSizeController | None,
+    adjoint: diffrax.AbstractAdjoint | None,
+    progress: bool,
+    caller: str,
+) -> tuple[Scene, _SolveArgs]:
+    """Check and canonicalize the options of ``simulate`` (shared with
+    ``simulate_ensemble``): the scene with strong dtypes and ``_solve``'s other arguments."""
     if solver is None:
         solver = diffrax.Tsit5()
     if stepsize_controller is None:
@@ -244,26 +311,13 @@ def simulate(
     )
     if jnp.result_type(scene.q0) != jnp.float64:
         warnings.warn(
-            f"simulate: the scene is {jnp.result_type(scene.q0)} (jax_enable_x64 is off). "
+            f"{caller}: the scene is {jnp.result_type(scene.q0)} (jax_enable_x64 is off). "
             "Positions of ~0.1 m are then resolved to ~1e-8 m, coarser than the default atol "
             "and comparable to contact deflections: adaptive solves stall "
             "(max_steps_reached). Call jax.config.update('jax_enable_x64', True) before "
             "building the scene.",
-            stacklevel=2,
+            stacklevel=3,
         )
-    saved, peak, result, stats, y1 = _solve(
-        scene, t0a, t1a, ts, solver, stepsize_controller, dt0a, max_steps, adjoint, meter
-    )
-    if throw:
-        if isinstance(peak, jax.core.Tracer):  # inside the caller's jit/grad: runtime error
-            saved = result.error_if(saved, result != Result.successful)
-        elif result != Result.successful:
-            raise RuntimeError(f"simulate failed: {Result[result]}")
-    return Solution(
-        ts=ts,
-        peak_contact_force=peak,
-        result=result,
-        stats=stats,
-        y1=y1,
-        **saved,
+    return scene, _SolveArgs(
+        t0a, t1a, ts, solver, stepsize_controller, dt0a, max_steps, adjoint, meter
     )

@@ -4,6 +4,7 @@ scene = jc.scenes.drive("08B", teeth=(18, 36), speed_rpm=1000, fidelity="lumped"
 scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
 """
 
+from ._ensemble import stack as stack
 from ._scenes.build import (
     joint_law as joint_law,
     link_stiffness as link_stiffness,

@@ -33,7 +33,7 @@ class Settings:
     ensemble: tuple[float, ...] = (0.9, 1.0, 1.1)  # speed factors of the operating points
     iterations: int = 25
     optimizer: str = "adam"
-    learning_rate: float = 0.15
+    learning_rate: float = 0.3
     baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
     remeasure_rtol: float = 1e-9
 

@@ -27,7 +27,5 @@ def test_stability_benchmark_quick(tmp_path):
     assert {r["method"] for r in rows} == {"Euler", "Heun", "Tsit5"}
     assert all(r["measured_dt"] for r in rows)
     # the measured boundary is the linear bound of the scene's modes (Heun, Tsit5)
-    assert all(
-        0.8 < r["measured_over_horizon_bound"] < 1.3 for r in rows if r["method"] != "Euler"
-    )
+    assert all(0.8 < r["measured_over_horizon_bound"] < 1.3 for r in rows if r["method"] != "Euler")
     assert (tmp_path / "stability.png").stat().st_size > 10_000

@@ -17,6 +17,10 @@ def period(rpm, z):
     return 60.0 / rpm / z
 
 
+# module-scoped fixtures: keep this file on one xdist worker (pyproject addopts)
+pytestmark = pytest.mark.xdist_group("test_dynamics")
+
+
 @pytest.fixture(scope="module")
 def slow_engagement():
     """z = 9 (strong polygonal action) at 300 rpm: quasi-static span kinematics."""
@@ -50,7 +54,10 @@ def test_polygonal_action(slow_engagement):
     # median over ~6 % of a tooth period removes it and keeps the polygonal wave
     from scipy.signal import medfilt
 
-    vv = medfilt(v, 2 * (len(ts) // 3 // 32) + 1)[late]
+    width = 2 * (len(ts) // 3 // 32) + 1
+    # medfilt pads with zeros: the last half window is biased low, drop it
+    keep = late & (np.arange(len(ts)) < len(ts) - width // 2)
+    vv = medfilt(v, width)[keep]
     amplitude = (vv.max() - vv.min()) / vv.max()
     expected = 1 - math.cos(math.pi / z)
     assert abs(amplitude / expected - 1) < 0.15, (amplitude, expected)

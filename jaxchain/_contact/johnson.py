@@ -29,6 +29,9 @@ _S_C = 4.0 * math.exp(-2.5)
 _Y_C = _S_C * (math.log(4.0 / _S_C) - 1.0)
 _GP_C = math.log(4.0 / _S_C) - 2.0
 _LN4 = math.log(4.0)
+# Newton from the one-fixed-point-step start: relative residual 4e-13 after 4 iterations
+# and round-off (7e-15) after 5 over y in [1e-14, y_c] (checked on 2e5 points)
+_NEWTON_ITERATIONS = 5
 
 
 def _g(s):
@@ -41,7 +44,7 @@ def _johnson_s(y):
     ys = jnp.clip(y, 1e-300, _Y_C)
     ly = jnp.log(ys)
     u = jnp.minimum(ly - jnp.log(jnp.log(4.0 / ys) - 1.0), math.log(_S_C))
-    for _ in range(8):
+    for _ in range(_NEWTON_ITERATIONS):
         w = _LN4 - 1.0 - u
         h = u + jnp.log(w) - ly
         u = jnp.minimum(u - h / (1.0 - 1.0 / w), math.log(_S_C))

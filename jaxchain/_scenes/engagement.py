@@ -49,12 +49,13 @@ def engagement(
 
     ``wrap`` rollers start seated (default z/2), ``n_entry`` rollers on the entry span mesh
     one after the other, one per tooth period 2π/(zω); simulate up to about
-    ``n_entry`` tooth periods. Each free span end runs on a guide moving at the chain's mean
-    speed, pulled by its tension through a soft spring (``span_stiffness``, default 1/50 of
-    a link's: the rest of a 50-link span). With ``settle`` (default for "lumped") the
-    strand starts from its static equilibrium on the held sprocket
-    (:func:`~jaxchain.scenes.equilibrate`); the "clearance" strand's statics is not yet
-    robust, so by default it starts from the layout.
+    ``n_entry`` tooth periods. Each free span end runs on a guide moving at that span's mean
+    speed (the polygon's mean speed z·p·ω/2π with the pitch stretched by the span's
+    tension, so the span's tension does not drift), pulled by its tension through a soft
+    spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
+    With ``settle`` (default for "lumped") the strand starts from its static equilibrium
+    on the held sprocket (:func:`~jaxchain.scenes.equilibrate`); the "clearance" strand's
+    statics is not yet robust, so by default it starts from the layout.
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = resolve_chain(chain)
@@ -84,12 +85,18 @@ def engagement(
     # speed of its seated end roller, along the span
     seated = np.asarray(lay.sprocket_of) == 0
     vel = omega * np.column_stack([-rollers[:, 1], rollers[:, 0]])
-    # the chain's mean speed on a polygon is z·p·ω/2π (slower than ω·R by sin(π/z)/(π/z))
-    v_chain = omega * teeth * chain.pitch / (2 * math.pi)
+    # the sprocket takes in (and lets out) z·ω/2π rollers per second; on a span stretched
+    # by its tension the rollers are p + stretch apart, so that span's mean speed is
+    # (p + stretch)·z·ω/2π (the polygon's mean speed z·p·ω/2π, stretched). A guide moving
+    # at the unstretched speed would lag by the stretch every tooth period and its spring
+    # would pull the span's tension up by span_stiffness·stretch per period.
+    rate = omega * teeth / (2 * math.pi)
+    v_entry = rate * (chain.pitch + _stretch(chain, fidelity, tension))
+    v_exit = rate * (chain.pitch + _stretch(chain, fidelity, slack_tension))
     first, last = np.nonzero(seated)[0][[0, -1]]
     entry_dir, exit_dir = np.asarray(lay.entry_dir), np.asarray(lay.exit_dir)
-    vel[:first] = -v_chain * entry_dir
-    vel[last + 1 :] = v_chain * exit_dir
+    vel[:first] = -v_entry * entry_dir
+    vel[last + 1 :] = v_exit * exit_dir
     bodies = chain_bodies(
         chain,
         rollers,
@@ -108,7 +115,7 @@ def engagement(
         body=jnp.asarray(ends),
         origin=jnp.asarray(np.asarray(bodies.q0)[ends, :2]),
         direction=jnp.asarray(np.stack([entry_dir, exit_dir])),
-        speed=jnp.asarray([-v_chain, v_chain]),
+        speed=jnp.asarray([-v_entry, v_exit]),
         tension=jnp.asarray([tension, slack_tension]),
         stiffness=jnp.full(2, k_span),
         damping=jnp.asarray(2 * np.sqrt(k_span * m_end)),

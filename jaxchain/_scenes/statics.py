@@ -163,7 +163,6 @@ def equilibrate(
     n = scene.n_bodies
     pitch = scene.sprockets[0].profile.pitch
     x = jnp.zeros(3 * n + 2 * ns)
-    base = scene
     # Sprockets held first, each driven axis pushed out by twice the largest seat clearance
     # so the rollers' free play is taken up: the rollers settle into contact. Then the
     # driven angles (load) and axes (take-up) are set free: from out of contact they would
@@ -185,7 +184,7 @@ def equilibrate(
             "starting from the layout, expect a larger start-up transient",
             stacklevel=2,
         )
-        return base
+        return moving  # the layout, guides still moving
     return _finish(moving, x)
 
 

@@ -1,0 +1,566 @@
+"""Ensembles: many scenes of one structure solved together.
+
+``stack`` puts scenes of one structure on a leading member axis; ``simulate_ensemble``
+runs the jitted solve of :func:`~jaxchain.simulate` vmapped over that axis, in groups of
+members of similar cost, each group split across devices with ``jax.shard_map``.
+
+Why groups: a vmapped adaptive solve is one batched while loop, which runs until its
+slowest member has finished; the faster members' steps are computed and thrown away. The
+*waste ratio* of a run is the steps executed (every batch's size times its step count)
+over the steps the members needed. A cheap pilot (or a user's cost estimate) predicts each
+member's step count; members sorted by prediction are cut into contiguous groups whose
+predicted waste stays below ``group_waste``. Groups are padded to a few batch sizes
+(powers of two times the device count) so few shapes are ever compiled, and under
+``shard_map`` each device runs its own while loop over its slice of a group.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Sequence
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+from jaxtyping import Array, ArrayLike, Float, Int
+
+from ._scene import Scene
+from ._simulate import Result, Solution, _prepare, _solve
+
+__all__ = ["stack", "simulate_ensemble", "EnsembleSolution"]
+
+MEMBER_AXIS = "members"
+
+
+# ---------------------------------------------------------------------------- stacking
+def _first_difference(a, b, path: str) -> str | None:
+    """Where two scene pytrees stop sharing one structure ("" path = the scene)."""
+    here = path or "scene"
+    if type(a) is not type(b):
+        return f"{here}: {type(a).__name__} vs {type(b).__name__}"
+    if isinstance(a, eqx.Module):
+        for f in dataclasses.fields(a):
+            sub = f"{path}.{f.name}" if path else f.name
+            d = _first_difference(getattr(a, f.name), getattr(b, f.name), sub)
+            if d:
+                return d
+        return None
+    if isinstance(a, (tuple, list)):
+        if len(a) != len(b):
+            return f"{here}: {len(a)} vs {len(b)} entries"
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            d = _first_difference(x, y, f"{path}[{i}]")
+            if d:
+                return d
+        return None
+    if isinstance(a, dict):
+        if a.keys() != b.keys():
+            return f"{here}: keys {sorted(a)} vs {sorted(b)}"
+        for k in a:
+            d = _first_difference(a[k], b[k], f"{path}[{k!r}]")
+            if d:
+                return d
+        return None
+    if eqx.is_array(a):
+        if np.shape(a) != np.shape(b):
+            return f"{here}: shape {np.shape(a)} vs {np.shape(b)}"
+        if jnp.result_type(a) != jnp.result_type(b):
+            return f"{here}: dtype {jnp.result_type(a)} vs {jnp.result_type(b)}"
+        return None
+    # static fields and non-array leaves (counts, kinds, regularization widths) are part
+    # of the compiled structure: they must agree
+    try:
+        same = bool(a == b)
+    except Exception:  # noqa: BLE001 - objects without a boolean equality
+        same = a is b
+    return None if same else f"{here}: {a!r} vs {b!r} (a non-array field must agree)"
+
+
+def stack(scenes: Sequence[Scene]) -> Scene:
+    """One :class:`~jaxchain.Scene` whose array leaves carry a leading member axis.
+
+    Every scene must share one structure: the same bodies, pairs and sprockets (counts,
+    tooth numbers, fidelity, contact slots, laws) — only array values (speeds, loads,
+    profiles, masses, initial states, …) may differ.
+
+    Raises:
+        ValueError: naming the first field whose structure or shape differs.
+    """
+    scenes = list(scenes)
+    if not scenes:
+        raise ValueError("stack needs at least one scene")
+    for i, s in enumerate(scenes):
+        if not isinstance(s, Scene):
+            raise TypeError(f"scene {i} is a {type(s).__name__}, not a jaxchain Scene")
+        if np.ndim(s.q0) != 2:
+            raise ValueError(f"scene {i} is already stacked (q0 has shape {np.shape(s.q0)})")
+    for i, s in enumerate(scenes[1:], start=1):
+        d = _first_difference(scenes[0], s, "")
+        if d:
+            raise ValueError(
+                f"scene {i} does not share scene 0's structure, so they cannot be stacked: {d}"
+            )
+    return jax.tree_util.tree_map(
+        lambda *xs: jnp.stack(xs) if eqx.is_array(xs[0]) else xs[0], *scenes
+    )
+
+
+def _n_members(scenes: Scene) -> int:
+    if np.ndim(scenes.q0) != 3:
+        raise ValueError(
+            "simulate_ensemble needs a list of scenes or a stacked scene (jc.scenes.stack); "
+            f"got a scene with q0 of shape {np.shape(scenes.q0)}"
+        )
+    return int(np.shape(scenes.q0)[0])
+
+
+# ---------------------------------------------------------------------------- solution
+class EnsembleSolution(eqx.Module):
+    """Named outputs of an ensemble, member axis first (members in the order given).
+
+    Attributes:
+        ts: (T,) save times [s] (shared).
+        roller_position, roller_velocity: (M, T, R, 2).
+        roller_sprocket_force: (M, T, R) [N].
+        link_tension: (M, T, L) [N].
+        sprocket_speed, sprocket_angle, sprocket_torque: (M, T, S).
+        peak_contact_force: (M,) each member's peak roller/tooth force [N].
+        result: :class:`~jaxchain.Result` per member (value shape (M,)); see ``messages``.
+        stats: solver statistics, each (M,).
+        y1: final states, member axis first.
+        steps: (M,) steps each member took (accepted + rejected): the work it needed.
+        accepted_steps: (M,) accepted steps per member.
+        steps_executed: steps the batched loops executed: over groups and devices, the
+            slice size times the slowest member's steps (padding included).
+        waste: ``steps_executed / sum(steps)`` (1: no step thrown away).
+        predicted_steps: (M,) the pilot's (or the given) cost estimate, or None.
+        groups: the member indices of each group, in the order run (static).
+        batch_sizes: each group's padded batch size (static).
+        n_devices: devices the member axis was split across (static).
+    """
+
+    ts: Float[Array, " T"]
+    roller_position: Float[Array, "M T R 2"]
+    roller_velocity: Float[Array, "M T R 2"]
+    roller_sprocket_force: Float[Array, "M T R"]
+    link_tension: Float[Array, "M T L"]
+    sprocket_speed: Float[Array, "M T S"]
+    sprocket_angle: Float[Array, "M T S"]
+    sprocket_torque: Float[Array, "M T S"]
+    peak_contact_force: Float[Array, " M"]
+    result: Result
+    stats: dict
+    y1: object
+    steps: Int[Array, " M"]
+    accepted_steps: Int[Array, " M"]
+    steps_executed: Int[Array, ""]
+    waste: Float[Array, ""]
+    predicted_steps: Float[Array, " M"] | None
+    groups: tuple[tuple[int, ...], ...] = eqx.field(static=True)
+    batch_sizes: tuple[int, ...] = eqx.field(static=True)
+    n_devices: int = eqx.field(static=True)
+
+    @property
+    def n_members(self) -> int:
+        return int(np.shape(self.peak_contact_force)[0])
+
+    @property
+    def successful(self) -> np.ndarray:
+        """(M,) bool: which members succeeded."""
+        return np.asarray(self.result._value) == _code(Result.successful)
+
+    @property
+    def ok(self) -> bool:
+        """Whether every member succeeded."""
+        return bool(np.all(self.successful))
+
+    @property
+    def failed(self) -> list[int]:
+        """Indices of the members that did not succeed."""
+        return [int(i) for i in np.nonzero(~self.successful)[0]]
+
+    @property
+    def messages(self) -> list[str]:
+        """Per member: what happened and what to change ("" when successful)."""
+        return [Result._index_to_message[int(v)] for v in np.asarray(self.result._value)]
+
+    @property
+    def result_names(self) -> list[str]:
+        """Per member: the :class:`~jaxchain.Result` name ("successful", "diverged", …)."""
+        names = {_code(item): name for name, item in Result._name_to_item.items()}
+        return [names[int(v)] for v in np.asarray(self.result._value)]
+
+    def member(self, i: int) -> Solution:
+        """Member ``i`` as a :class:`~jaxchain.Solution`."""
+        pick = lambda x: x[i] if eqx.is_array(x) else x
+        fields = {
+            f: pick(getattr(self, f))
+            for f in (
+                "roller_position",
+                "roller_velocity",
+                "roller_sprocket_force",
+                "link_tension",
+                "sprocket_speed",
+                "sprocket_angle",
+                "sprocket_torque",
+                "peak_contact_force",
+            )
+        }
+        return Solution(
+            ts=self.ts,
+            result=jax.tree_util.tree_map(pick, self.result),
+            stats=jax.tree_util.tree_map(pick, self.stats),
+            y1=jax.tree_util.tree_map(pick, self.y1),
+            **fields,
+        )
+
+
+def _code(item) -> int:
+    return int(np.asarray(item._value))
+
+
+# ---------------------------------------------------------------------------- devices
+@functools.cache
+def _mesh_of(devices: tuple) -> Mesh:
+    return Mesh(np.asarray(devices, dtype=object), (MEMBER_AXIS,))
+
+
+def _resolve_mesh(mesh, sharding) -> Mesh:
+    if mesh is not None and sharding is not None:
+        raise ValueError("give either mesh or sharding, not both")
+    if sharding is not None:
+        if sharding != "auto":
+            raise ValueError(f'sharding must be None or "auto", got {sharding!r}')
+        return _mesh_of(tuple(jax.local_devices()))
+    if mesh is None:  # one device, same code path
+        return _mesh_of((jax.local_devices()[0],))
+    if not isinstance(mesh, Mesh) or len(mesh.axis_names) != 1:
+        raise ValueError(
+            "mesh must be a jax.sharding.Mesh with one axis (the member axis), got "
+            f"{getattr(mesh, 'axis_names', mesh)!r}"
+        )
+    return mesh
+
+
+# ---------------------------------------------------------------------------- batched solve
+def _vmapped(scenes, dt0, args):
+    """``_solve`` vmapped over the scenes' array leaves (and per-member ``dt0``)."""
+    if dt0 is None:
+        return eqx.filter_vmap(lambda s: _solve(s, *args))(scenes)
+    return eqx.filter_vmap(lambda s, h: _solve(s, *args._replace(dt0=h)))(scenes, dt0)
+
+
+@eqx.filter_jit
+def _solve_batch(scenes, dt0, args, mesh):
+    """``_solve`` vmapped over the member axis, the axis split across ``mesh``'s devices
+    with ``shard_map``: each device runs its own batched while loop over its slice and
+    stops with its own slowest member. ``dt0``: per-member (P,) steps, or None (then
+    ``args.dt0`` applies to all)."""
+    axis = mesh.axis_names[0]
+    s_dyn, s_static = eqx.partition(scenes, eqx.is_array)
+    a_dyn, a_static = eqx.partition(args, eqx.is_array)
+    out_static = []
+
+    def local(s_dyn, dt0, a_dyn):
+        out = _vmapped(eqx.combine(s_dyn, s_static), dt0, eqx.combine(a_dyn, a_static))
+        dyn, static = eqx.partition(out, eqx.is_array)
+        out_static.append(static)
+        return dyn
+
+    member = PartitionSpec(axis)
+    dyn = jax.shard_map(
+        local,
+        mesh=mesh,
+        in_specs=(member, member, PartitionSpec()),
+        out_specs=member,
+        # diffrax's loops do not carry the varying-axis annotations check_vma needs
+        check_vma=False,
+    )(s_dyn, dt0, a_dyn)
+    return eqx.combine(dyn, out_static[0])
+
+
+@eqx.filter_jit
+def _solve_batch_traced(scenes, dt0, args, mesh):
+    """The same vmapped solve for traced calls (inside the caller's ``jit``/``grad``):
+    one batched loop, its member axis partitioned by the compiler (GSPMD) when ``mesh``
+    has several devices. Reverse-mode AD of diffrax's checkpointed loop inside
+    ``shard_map`` fails in equinox 0.13 (closure-conversion check on sharding metadata,
+    patrick-kidger/equinox#1261), hence no ``shard_map`` here."""
+    if mesh.devices.size > 1:
+        spread = NamedSharding(mesh, PartitionSpec(mesh.axis_names[0]))
+        pin = lambda x: jax.lax.with_sharding_constraint(x, spread) if eqx.is_array(x) else x
+        scenes, dt0 = jax.tree_util.tree_map(pin, (scenes, dt0))
+        return jax.tree_util.tree_map(pin, _vmapped(scenes, dt0, args))
+    return _vmapped(scenes, dt0, args)
+
+
+def _take(tree, index):
+    return jax.tree_util.tree_map(lambda x: x[index] if eqx.is_array(x) else x, tree)
+
+
+# ---------------------------------------------------------------------------- planning
+def _padded(n: int, n_devices: int) -> int:
+    """Batch size for ``n`` members: ``n_devices`` times a power of two."""
+    per = -(-n // n_devices)
+    return n_devices * (1 << (per - 1).bit_length())
+
+
+def _group_cost(pred: np.ndarray, size: int, n_devices: int) -> float:
+    """Steps executed by one padded group (``pred`` sorted descending, padded with its
+    last entry): each device's slice costs its length times its first (largest) entry."""
+    padded = np.concatenate([pred, np.full(size - len(pred), pred[-1])])
+    per = size // n_devices
+    return float(per * padded[::per].sum())
+
+
+def _plan(pred: np.ndarray, group_waste: float, n_devices: int) -> list[np.ndarray]:
+    """Cut the members, sorted by predicted cost (largest first), into contiguous groups:
+    each the largest padded batch whose predicted waste is within ``group_waste`` (or,
+    where none is, the one of least waste)."""
+    order = np.argsort(-pred, kind="stable")
+    p = np.maximum(pred[order], 1e-12)
+    groups, i, m = [], 0, len(p)
+    while i < m:
+        sizes, size = [], n_devices
+        while True:
+            sizes.append(size)
+            if size >= m - i:
+                break
+            size *= 2
+        best, best_waste, chosen = None, math.inf, None
+        for size in sizes:
+            n = min(size, m - i)
+            waste = _group_cost(p[i : i + n], size, n_devices) / p[i : i + n].sum()
+            if waste <= group_waste:
+                chosen = n  # sizes ascend: the last feasible one is the largest
+            if waste < best_waste - 1e-12:
+                best, best_waste = n, waste
+        n = chosen if chosen is not None else best
+        groups.append(order[i : i + n])
+        i += n
+    return groups
+
+
+def _pilot_controller(controller, rtol, atol, pilot_rtol):
+    if not isinstance(controller, diffrax.PIDController):
+        return None
+    scale = pilot_rtol / rtol
+    return eqx.tree_at(
+        lambda c: (c.rtol, c.atol),
+        controller,
+        (
+            jnp.asarray(controller.rtol, dtype=float) * scale,
+            jnp.asarray(controller.atol, dtype=float) * scale,
+        ),
+    )
+
+
+# ---------------------------------------------------------------------------- driver
+def simulate_ensemble(
+    scenes: Scene | Sequence[Scene],
+    t1: ArrayLike,
+    *,
+    group_waste: float | None = 1.5,
+    pilot_rtol: float | None = None,
+    cost: ArrayLike | None = None,
+    mesh: Mesh | None = None,
+    sharding: str | None = None,
+    t0: ArrayLike = 0.0,
+    solver: diffrax.AbstractSolver | None = None,
+    rtol: float = 1e-6,
+    atol: float = 1e-9,
+    dt0: ArrayLike | None = None,
+    max_steps: int = 200_000,
+    ts: ArrayLike | None = None,
+    n_save: int = 501,
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
+    progress: bool = False,
+    throw: bool = True,
+) -> EnsembleSolution:
+    """Simulate many scenes of one structure from ``t0`` to ``t1`` [s] together.
+
+    Each member's result is that of :func:`~jaxchain.simulate` on it alone (the same
+    jitted solve, vmapped); members only share the time span, save times and solver
+    options.
+
+    Args:
+        scenes: a list of scenes of one structure, or a stacked scene
+            (:func:`~jaxchain.scenes.stack`).
+        t1, t0: time span [s], shared.
+        group_waste: run the members in groups of similar predicted cost, each group's
+            predicted waste ratio (steps executed over steps needed, padding included)
+            at most this; None: one batch of all members. Fixed-step solves cost
+            ``(t1 − t0)/dt0`` steps (no pilot; one batch unless ``dt0`` is per member);
+            traced calls (inside the caller's ``jax.jit``/``jax.grad``) run as one
+            batch, its member axis partitioned over ``mesh`` by the compiler instead of
+            ``shard_map`` (not yet differentiable through diffrax's loop).
+        pilot_rtol: the cost prediction, when no ``cost`` is given, is each member's
+            step count in a pilot solve of the whole batch at this looser tolerance
+            (``atol`` scaled alike; default ``100·rtol``, at most ``1e-3``). Needs a
+            ``diffrax.PIDController``; with another controller give ``cost`` or get one
+            batch. The pilot ranks members well, but where its loose solve is held at
+            the explicit stability limit of stiff contacts its step counts have a floor
+            that compresses their spread: it then splits less than the true costs
+            would (benchmarks/ensembles.py). It costs a solve at loose tolerance.
+        cost: (M,) predicted relative cost per member; replaces the pilot. A previous
+            run's ``steps`` (free in an optimization loop or a refined sweep) is the
+            best predictor.
+        mesh: a one-axis ``jax.sharding.Mesh``: the member axis is split across its
+            devices (members padded to a multiple of its size), each device running its
+            own batched while loop (``jax.shard_map``).
+        sharding: ``"auto"``: a mesh of all local devices. Default: one device (the
+            same code path).
+        dt0: as in :func:`~jaxchain.simulate`, or (M,) per-member steps (e.g. fixed
+            steps scaled to each member's speed).
+        solver, rtol, atol, max_steps, ts, n_save, stepsize_controller, adjoint,
+            progress: as in :func:`~jaxchain.simulate`.
+        throw: raise ``RuntimeError`` naming every failed member and why; with
+            ``throw=False`` check ``EnsembleSolution.result`` / ``.failed`` /
+            ``.messages``.
+
+    Returns:
+        :class:`EnsembleSolution`, members in the order given.
+
+    Compiled once per scene structure, options and padded batch size: a second call with
+    new values and the same batch sizes does not retrace.
+    """
+    if not isinstance(scenes, Scene):
+        scenes = stack(scenes)
+    m = _n_members(scenes)
+    if group_waste is not None and not group_waste >= 1.0:
+        raise ValueError(f"group_waste must be >= 1 (or None), got {group_waste}")
+    member_dt0 = dt0 is not None and np.ndim(dt0) == 1
+    if member_dt0 and np.shape(dt0) != (m,):
+        raise ValueError(f"a per-member dt0 must have shape ({m},), got {np.shape(dt0)}")
+    if dt0 is not None and not member_dt0 and np.ndim(dt0) != 0:
+        raise ValueError(f"dt0 must be a scalar or ({m},), got shape {np.shape(dt0)}")
+    scenes, args = _prepare(
+        scenes,
+        t1,
+        t0=t0,
+        solver=solver,
+        rtol=rtol,
+        atol=atol,
+        dt0=dt0,
+        max_steps=max_steps,
+        ts=ts,
+        n_save=n_save,
+        stepsize_controller=stepsize_controller,
+        adjoint=adjoint,
+        progress=progress,
+        caller="simulate_ensemble",
+    )
+    dt0_m = None
+    if member_dt0:
+        dt0_m, args = args.dt0, args._replace(dt0=None)
+    mesh = _resolve_mesh(mesh, sharding)
+    n_dev = int(mesh.devices.size)
+    traced = any(
+        isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((scenes, args, dt0_m))
+    )
+
+    def run(index, a):
+        """Solve the members ``index`` (numpy) padded to a planned size with options ``a``."""
+        size = _padded(len(index), n_dev)
+        full = np.concatenate([index, np.full(size - len(index), index[-1])])
+        same = size == m and np.array_equal(full, np.arange(m))
+        sub = scenes if same else _take(scenes, full)
+        h = None if dt0_m is None else (dt0_m if same else dt0_m[full])
+        solve = _solve_batch_traced if traced else _solve_batch
+        return solve(sub, h, a, mesh), size
+
+    # ---- plan
+    predicted = None
+    if cost is not None:
+        predicted = np.asarray(cost, dtype=float)
+        if predicted.shape != (m,) or not np.all(np.isfinite(predicted) & (predicted > 0)):
+            raise ValueError(f"cost must be ({m},) finite and > 0, got {cost!r}")
+    fixed = isinstance(args.controller, diffrax.ConstantStepSize)
+    if traced or group_waste is None or m == 1 or (fixed and dt0_m is None):
+        groups = [np.arange(m)]
+    else:
+        if predicted is None and fixed:  # fixed per-member steps: the cost is known
+            span = float(args.t1) - float(args.t0)
+            predicted = np.ceil(span / np.asarray(dt0_m, dtype=float))
+        elif predicted is None:
+            prtol = min(100.0 * rtol, 1e-3) if pilot_rtol is None else float(pilot_rtol)
+            pilot = _pilot_controller(args.controller, rtol, atol, prtol)
+            if pilot is not None:
+                (_, _, _, pstats, _), _ = run(np.arange(m), args._replace(controller=pilot))
+                predicted = np.asarray(pstats["num_steps"], dtype=float)[:m]
+        groups = [np.arange(m)] if predicted is None else _plan(predicted, group_waste, n_dev)
+
+    # ---- run: groups are dispatched one after the other (asynchronously)
+    outs, sizes = [], []
+    for g in groups:
+        out, size = run(g, args)
+        outs.append(out)
+        sizes.append(size)
+
+    # ---- steps executed: each device's slice runs until its slowest member is done
+    loops = 1 if traced else n_dev  # traced: one loop over the batch (GSPMD)
+    executed = 0
+    for out, size in zip(outs, sizes, strict=True):
+        steps_g = out[3]["num_steps"].reshape(loops, size // loops)
+        executed = executed + (size // loops) * jnp.sum(jnp.max(steps_g, axis=1))
+
+    # ---- back to the members' order
+    if len(outs) == 1:
+        merged = outs[0]
+        where = np.empty(m, dtype=int)
+        where[groups[0]] = np.arange(m)
+    else:
+        merged = jax.tree_util.tree_map(
+            lambda *xs: jnp.concatenate(xs) if eqx.is_array(xs[0]) else xs[0], *outs
+        )
+        offsets = np.cumsum([0, *sizes[:-1]])
+        where = np.empty(m, dtype=int)
+        for g, off in zip(groups, offsets, strict=True):
+            where[g] = off + np.arange(len(g))
+    if not (len(outs) == 1 and sizes[0] == m and np.array_equal(where, np.arange(m))):
+        merged = _take(merged, where)
+    if n_dev > 1 and m % n_dev == 0 and not traced:  # keep the result spread over devices
+        spread = NamedSharding(mesh, PartitionSpec(mesh.axis_names[0]))
+        merged = jax.tree_util.tree_map(
+            lambda x: jax.device_put(x, spread) if eqx.is_array(x) else x, merged
+        )
+    saved, peak, result, stats, y1 = merged
+    steps = stats["num_steps"]
+    if throw:
+        if traced:
+            saved = result.error_if(saved, jnp.any(result._value != _code(Result.successful)))
+        else:
+            codes = np.asarray(result._value)
+            bad = np.nonzero(codes != _code(Result.successful))[0]
+            if bad.size:
+                names = {_code(item): name for name, item in Result._name_to_item.items()}
+                lines = [
+                    f"member {i}: {names[int(codes[i])]}: {Result._index_to_message[int(codes[i])]}"
+                    for i in bad
+                ]
+                raise RuntimeError(
+                    f"simulate_ensemble: {bad.size} of {m} members failed "
+                    f"(members {[int(i) for i in bad]}):\n" + "\n".join(lines)
+                )
+    return EnsembleSolution(
+        ts=args.ts,
+        peak_contact_force=peak,
+        result=result,
+        stats=stats,
+        y1=y1,
+        steps=steps,
+        accepted_steps=stats["num_accepted_steps"],
+        steps_executed=executed,
+        waste=executed / jnp.sum(steps),
+        predicted_steps=None if predicted is None else jnp.asarray(predicted),
+        groups=tuple(tuple(int(i) for i in g) for g in groups),
+        batch_sizes=tuple(sizes),
+        n_devices=n_dev,
+        **saved,
+    )
