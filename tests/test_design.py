@@ -28,10 +28,6 @@ def _build(profile, law=DESIGN_LAW):
     )
 
 
-# module-scoped fixtures: keep this file on one xdist worker (pyproject addopts)
-pytestmark = pytest.mark.xdist_group("test_design")
-
-
 @pytest.fixture(scope="module")
 def short_objective():
     """One engagement: 2 tooth periods, window over the second."""

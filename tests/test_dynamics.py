@@ -17,10 +17,6 @@ def period(rpm, z):
     return 60.0 / rpm / z
 
 
-# module-scoped fixtures: keep this file on one xdist worker (pyproject addopts)
-pytestmark = pytest.mark.xdist_group("test_dynamics")
-
-
 @pytest.fixture(scope="module")
 def slow_engagement():
     """z = 9 (strong polygonal action) at 300 rpm: quasi-static span kinematics."""

@@ -7,7 +7,7 @@ The default tests share one small strand (z = 9, 3 entry, 4 wrapped, 2 exit roll
 to the speed (300 … 2000 rpm: 300 … 2000 steps), so every member's cost is known exactly
 and the results of a batch equal the one-at-a-time solves to rounding. Two compiled
 shapes (an ensemble of 4, the single solve), plus one in a subprocess, all in one test
-(pytest-xdist would compile a shape shared by several tests once per worker).
+(so each shape compiles once, however pytest-xdist distributes the tests).
 """
 
 import json
@@ -26,8 +26,6 @@ import pytest
 
 import jaxchain as jc
 from jaxchain._ensemble import _group_cost, _padded, _plan
-
-pytestmark = pytest.mark.xdist_group("test_ensembles")
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEEDS = np.array([300.0, 800.0, 1400.0, 2000.0])  # rpm
@@ -225,8 +223,8 @@ def sharded_equals_unsharded(proc, one_batch):
 
 
 def test_ensembles_batched_grouped_per_member_failures_no_retrace_sharded(scenes, monkeypatch):
-    """One test for everything that shares the compiled batch of four (pytest-xdist
-    would otherwise compile it once per worker): equal to one-at-a-time ``simulate``,
+    """One test for everything that shares the compiled batch of four (it compiles once
+    however pytest-xdist distributes the tests): equal to one-at-a-time ``simulate``,
     grouping by cost, failures per member, no retrace, and sharded over 4 host devices
     (a subprocess, run alongside)."""
     proc = start_sharded()

@@ -36,10 +36,6 @@ def small_engagement():
     return eqx.tree_at(lambda s: s.roller_law, sc, law)
 
 
-# module-scoped fixtures: keep this file on one xdist worker (pyproject addopts)
-pytestmark = pytest.mark.xdist_group("test_failures")
-
-
 @pytest.fixture(scope="module")
 def scene():
     return small_engagement()

@@ -26,10 +26,6 @@ RPM = 1000.0
 TEETH = 18
 
 
-# module-scoped fixtures: keep this file on one xdist worker (pyproject addopts)
-pytestmark = pytest.mark.xdist_group("test_plot_drive")
-
-
 @pytest.fixture(scope="module")
 def engaged():
     """The meshing scene simulated over three tooth periods (compiles once: ~30 s)."""

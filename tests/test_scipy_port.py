@@ -12,9 +12,6 @@ import jaxchain as jc
 from benchmarks.scipy_engagement import NumpyField, _Gap
 from jaxchain._dynamics import initial_state
 
-# module-scoped fixtures: keep this file on one xdist worker (pyproject addopts)
-pytestmark = pytest.mark.xdist_group("test_scipy_port")
-
 
 @pytest.fixture(scope="module")
 def scene():
