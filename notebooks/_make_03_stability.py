@@ -7,12 +7,9 @@ The notebook runs the stability map of ``benchmarks/stability.py`` (small with
 stored (the test suite executes it).
 """
 
-from pathlib import Path
+from nbformat.v4 import new_code_cell, new_markdown_cell
 
-import nbformat
-from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
-
-HERE = Path(__file__).parent
+from _write import write
 
 CELLS = [
     new_markdown_cell(
@@ -131,16 +128,7 @@ Image(buf.getvalue())"""
 
 
 def main():
-    nb = new_notebook(cells=CELLS)
-    nb.metadata["kernelspec"] = {
-        "display_name": "Python 3",
-        "language": "python",
-        "name": "python3",
-    }
-    nbformat.validate(nb)
-    path = HERE / "03_stability.ipynb"
-    nbformat.write(nb, path)
-    print(f"wrote {path}")
+    write(CELLS, "03_stability.ipynb")
 
 
 if __name__ == "__main__":

@@ -8,12 +8,9 @@ work_precision, regularization, scipy_engagement), runs a small live work–prec
 computed from those results; outputs are not stored (the test suite executes it).
 """
 
-from pathlib import Path
+from nbformat.v4 import new_code_cell, new_markdown_cell
 
-import nbformat
-from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
-
-HERE = Path(__file__).parent
+from _write import write
 
 CELLS = [
     new_markdown_cell(
@@ -100,17 +97,7 @@ excluded). Down and to the left is better. The dotted line is how far the refere
 itself moves between its two tolerances."""
     ),
     new_code_cell(
-        """STYLE = {
-    "Euler": ("tab:gray", "x"),
-    "Heun": ("tab:brown", "+"),
-    "Bosh3": ("tab:olive", "v"),
-    "Tsit5": ("tab:blue", "o"),
-    "Dopri5": ("tab:cyan", "s"),
-    "Dopri8": ("tab:green", "D"),
-    "Kvaerno3": ("tab:pink", "^"),
-    "Kvaerno5": ("tab:red", "<"),
-    "KenCarp4": ("tab:purple", ">"),
-}
+        """from benchmarks.work_precision import STYLE  # one colour and marker per solver
 
 
 def error_time_axes(ax, rows, err, *, label_key="solver", style=STYLE):
@@ -516,16 +503,7 @@ display(Markdown(table))"""
 
 
 def main():
-    nb = new_notebook(cells=CELLS)
-    nb.metadata["kernelspec"] = {
-        "display_name": "Python 3",
-        "language": "python",
-        "name": "python3",
-    }
-    nbformat.validate(nb)
-    path = HERE / "04_speed_accuracy.ipynb"
-    nbformat.write(nb, path)
-    print(f"wrote {path}")
+    write(CELLS, "04_speed_accuracy.ipynb")
 
 
 if __name__ == "__main__":
