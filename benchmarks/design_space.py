@@ -51,7 +51,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -65,7 +64,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
+from benchmarks.work_precision import loadavg, machine_info  # noqa: E402
 from optimize.problem import (  # noqa: E402
     Problem,
     Settings,
@@ -157,10 +156,6 @@ def profile_at(problem: Problem, fraction) -> jc.ToothProfile:
         problem.space.template,
         [jnp.asarray(v) for v in x],
     )
-
-
-def loadavg():
-    return list(os.getloadavg()) if hasattr(os, "getloadavg") else None
 
 
 def coordinate(fraction) -> jnp.ndarray:

@@ -48,6 +48,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks.work_precision import loadavg  # noqa: E402
 
 OUT = Path(__file__).parent / "results"
 Z = 18
@@ -60,7 +61,7 @@ def machine():
     return {
         "platform": platform.platform(),
         "cpu_count": os.cpu_count(),
-        "loadavg": list(os.getloadavg()),
+        "loadavg": loadavg(),
         "devices": [str(d) for d in jax.devices()],
     }
 
@@ -239,7 +240,7 @@ def sharding_worker(path):
                 "steps": np.asarray(ens.steps).tolist(),
                 "batch_sizes": list(ens.batch_sizes),
             }
-    res["loadavg"] = list(os.getloadavg())
+    res["loadavg"] = loadavg()
     print("RESULT " + json.dumps(res))
 
 
@@ -500,7 +501,7 @@ def main(argv=None):
     links = 50 if quick else 200
     print(f"(e) compile time of simulate and its gradient, {links}-link drive:", flush=True)
     results["compile"] = compile_study(("lumped",) if quick else ("lumped", "clearance"), links)
-    results["machine"]["loadavg_end"] = list(os.getloadavg())
+    results["machine"]["loadavg_end"] = loadavg()
     results["wall_s"] = time.perf_counter() - t_start
     results["targets"] = {
         "grad_over_forward": results["gradient"]["grad_over_forward"],

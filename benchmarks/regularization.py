@@ -70,7 +70,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import time
 from pathlib import Path
 
@@ -84,7 +83,12 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.work_precision import machine_info, reference, tooth_period  # noqa: E402
+from benchmarks.work_precision import (  # noqa: E402
+    loadavg,
+    machine_info,
+    reference,
+    tooth_period,
+)
 from jaxchain._scene import ClearanceJoints  # noqa: E402
 
 OUT = Path(__file__).parent / "results"
@@ -594,7 +598,7 @@ def main(argv=None):
     results["fidelity"] = fidelity_study(p)
     results["timing_s"]["fidelity"] = time.perf_counter() - t
     results["total_s"] = time.perf_counter() - start
-    results["machine"]["loadavg_at_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
+    results["machine"]["loadavg_at_end"] = loadavg()
     summary(results)
     (args.out / "regularization.json").write_text(json.dumps(results, indent=1))
     chart(results, args.out / "regularization.png")

@@ -37,7 +37,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import time
 from pathlib import Path
 
@@ -55,6 +54,7 @@ from benchmarks.work_precision import (  # noqa: E402
     STYLE,
     best_table,
     engagement_scene,
+    loadavg,
     machine_info,
     reference,
     sweep,
@@ -735,7 +735,7 @@ def main(argv=None):
         )
     results["target_speedup"] = 30.0
     results["total_s"] = time.perf_counter() - start
-    results["machine"]["loadavg_at_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
+    results["machine"]["loadavg_at_end"] = loadavg()
     (args.out / "scipy_engagement.json").write_text(json.dumps(results, indent=1))
     chart(results, args.out / "scipy_engagement.png")
     print(

@@ -384,6 +384,11 @@ def best_table(rows, levels, err_key="peak_rel_err"):
     return table
 
 
+def loadavg() -> list[float] | None:
+    """1/5/15-minute load averages (None where the OS has none): the machine is shared."""
+    return list(os.getloadavg()) if hasattr(os, "getloadavg") else None
+
+
 def machine_info() -> dict:
     import scipy
 
@@ -392,7 +397,7 @@ def machine_info() -> dict:
         "processor": platform.processor(),
         "cpu_count": os.cpu_count(),
         "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        "loadavg_at_start": os.getloadavg() if hasattr(os, "getloadavg") else None,
+        "loadavg_at_start": loadavg(),
         "python": platform.python_version(),
         "jax_backend": jax.default_backend(),
         "versions": {
@@ -535,7 +540,7 @@ def main(argv=None):
         }
         results["drive"]["driver_tooth_periods"] = p["drv_periods"]
     results["total_s"] = time.perf_counter() - start
-    results["machine"]["loadavg_at_end"] = os.getloadavg() if hasattr(os, "getloadavg") else None
+    results["machine"]["loadavg_at_end"] = loadavg()
     (args.out / "work_precision.json").write_text(json.dumps(results, indent=1))
     chart(results, args.out / "work_precision.png")
     print(
