@@ -510,19 +510,15 @@ def simulate_ensemble(
         steps_g = out[3]["num_steps"].reshape(loops, size // loops)
         executed = executed + (size // loops) * jnp.sum(jnp.max(steps_g, axis=1))
 
-    # ---- back to the members' order
-    if len(outs) == 1:
-        merged = outs[0]
-        where = np.empty(m, dtype=int)
-        where[groups[0]] = np.arange(m)
-    else:
+    # ---- back to the members' order: member g[i] sits at row offset(g) + i
+    merged = outs[0]
+    if len(outs) > 1:
         merged = jax.tree_util.tree_map(
             lambda *xs: jnp.concatenate(xs) if eqx.is_array(xs[0]) else xs[0], *outs
         )
-        offsets = np.cumsum([0, *sizes[:-1]])
-        where = np.empty(m, dtype=int)
-        for g, off in zip(groups, offsets, strict=True):
-            where[g] = off + np.arange(len(g))
+    where = np.empty(m, dtype=int)
+    for g, off in zip(groups, np.cumsum([0, *sizes[:-1]]), strict=True):
+        where[g] = off + np.arange(len(g))
     if not (len(outs) == 1 and sizes[0] == m and np.array_equal(where, np.arange(m))):
         merged = _take(merged, where)
     if n_dev > 1 and m % n_dev == 0 and not traced:  # keep the result spread over devices
