@@ -72,7 +72,7 @@ def drive(
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,
-    settle: bool | None = None,
+    settle: bool = True,
     link_damping: float = 0.05,
 ) -> Scene:
     """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
@@ -106,8 +106,7 @@ def drive(
         link_damping: damping ratio of the lumped links (0: undamped).
         settle: start from the static equilibrium of the layout (see
             :func:`~jaxchain.scenes.equilibrate`); False starts from the raw layout with
-            the load ramped in. Default: True for "lumped"; False for "clearance", whose
-            statics (joint free play on top of the seats') is not yet robust.
+            the load ramped in (default True).
     """
     chain = resolve_chain(chain)
     z1, z2 = teeth
@@ -133,6 +132,20 @@ def drive(
         n_links=n_links,
         link_pitch=chain.pitch + stretch,
     )
+    if settle:
+        # statics: the take-up 2·pretension along the centre line is shared by the spans,
+        # tight − slack = load/R2; a slack span cannot push, so the load must not exceed it
+        r1, r2 = float(profiles[0].pitch_radius), float(profiles[1].pitch_radius)
+        cos_b = math.sqrt(max(0.0, 1 - ((r2 - r1) / lay.centre_distance) ** 2))
+        carried = load_torque / r2
+        if carried > 2 * pretension * cos_b:
+            raise ValueError(
+                f"no static equilibrium: the load needs a tension difference load_torque/R2 = "
+                f"{carried:.4g} N but the spans share only the take-up 2·pretension·cos β = "
+                f"{2 * pretension * cos_b:.4g} N (the slack span would have to push); use "
+                f"pretension >= {carried / (2 * cos_b):.4g} N, a smaller load_torque, or "
+                "settle=False (start from the layout, load ramped in)"
+            )
     omega1 = speed_rpm * 2 * math.pi / 60
     vel = transport_velocity(lay, omega1, z1, z2)
     bodies = chain_bodies(
@@ -149,8 +162,6 @@ def drive(
     if driven_inertia is None:
         driven_inertia = disc_inertia(chain, profiles[1])
     _check_positive("driven_inertia", driven_inertia, "kg·m²")
-    if settle is None:
-        settle = fidelity == "lumped"
     if load_ramp is None:  # a settled start carries the full load already
         load_ramp = 0.0 if settle else 2 * math.pi / omega1
     sprockets = (

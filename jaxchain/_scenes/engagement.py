@@ -39,7 +39,7 @@ def engagement(
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,
-    settle: bool | None = None,
+    settle: bool = True,
     link_damping: float = 0.05,
     span_stiffness: float | None = None,
 ) -> Scene:
@@ -53,9 +53,8 @@ def engagement(
     speed (the polygon's mean speed z·p·ω/2π with the pitch stretched by the span's
     tension, so the span's tension does not drift), pulled by its tension through a soft
     spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
-    With ``settle`` (default for "lumped") the strand starts from its static equilibrium
-    on the held sprocket (:func:`~jaxchain.scenes.equilibrate`); the "clearance" strand's
-    statics is not yet robust, so by default it starts from the layout.
+    With ``settle`` (default) the strand starts from its static equilibrium on the held
+    sprocket (:func:`~jaxchain.scenes.equilibrate`); False starts from the layout.
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = resolve_chain(chain)
@@ -137,6 +136,4 @@ def engagement(
         impact_speed=impact_speed,
         fidelity=fidelity,
     )
-    if settle is None:
-        settle = fidelity == "lumped"
     return equilibrate(scene) if settle else scene

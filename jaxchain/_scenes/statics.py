@@ -3,28 +3,32 @@
 A layout puts every wrapped roller at the centre of its seat, out of contact; under
 tension the chain would then snap into the seats at t = 0 and the start-up transient would
 dwarf the meshing impacts. ``equilibrate`` moves the chain bodies to the static
-equilibrium at t = 0 with the driver held, by a trust-region least-squares solve
-(optimistix dogleg) of the force residual in scaled variables (displacements in pitches,
-forces in units of the largest applied force). In stages, because out of contact several
-unknowns have no stiffness yet:
+equilibrium at t = 0 with the driver held, in scaled unknowns (displacements in pitches,
+forces in units of the largest applied force), in two steps:
 
-1. closed chains: the driven axes are moved out along the centre line by twice the seat
-   clearance (the driven wrap with them, the spans stretched evenly) and held, and the
-   chain settles into contact;
-2. then the driven axes are set free under a take-up force (each span then carries half
-   of it) and the driven sprockets' angles under their full load torque;
-3. open strands: inside the residual each anchor's guide stays level with its body, so
-   the anchor pulls with exactly its tension (its spring only holds the line across).
+1. dynamic relaxation: pseudo-time integration of the free unknowns with the bodies' own
+   masses, no velocity in the forces, symplectic Euler at a step below the stiffest
+   element's stability limit, and kinetic damping (every velocity zeroed whenever the
+   kinetic energy stops growing: each reset takes out one oscillation's energy). It needs
+   no Jacobian and is indifferent to free play: a roller floating in its bush clearance, or
+   a chain whose joints must all close before it carries anything, is a mechanism to a
+   Newton solver (zero stiffness until contact) but simply falls into contact here.
+   Driven axes move under their take-up force and driven angles under their load torque
+   at the same time. A step found unstable (forces growing past any applied one) is
+   halved and the relaxation restarted.
+2. if the relaxation did not reach the tolerance: a trust-region least-squares polish
+   (optimistix dogleg) from where it stopped, with a vanishing spring to the start (1e-6
+   in scaled units) so bodies left floating in free play do not make it rank-deficient;
+   convergence is judged on the true forces without it.
 
-A vanishing spring to the start (1e-6 in scaled units) keeps bodies floating in free
-play (a roller inside its bush clearance) from making the problem rank-deficient;
-convergence is judged on the true forces without it, and a solve that moves anything by
-a pitch or more is rejected. Lumped chains settle; clearance chains (joint free play on
-top of the seats') do not yet, and their scenes start from the layout by default.
+Open strands: inside the residual each anchor's guide stays level with its body, so the
+anchor pulls with exactly its tension (its spring only holds the line across). A solve
+that moves anything by a pitch or more is rejected.
 """
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import equinox as eqx
@@ -34,7 +38,7 @@ import optimistix as optx
 from jaxtyping import ArrayLike
 
 from .._dynamics import DriveState, forces
-from .._scene import Scene
+from .._scene import LinkSprings, Scene
 
 __all__ = ["equilibrate", "resettle"]
 
@@ -87,25 +91,6 @@ def _residual(x, args):
     return jnp.concatenate([res.reshape(-1), moment, axis]) - reg * (x - x_pin)
 
 
-def _take_up_guess(scene, x, push, pitch):
-    """Start for a take-up: each pushed axis moved out by twice the largest seat clearance,
-    and with it every body in proportion to its distance along the centre line (the
-    driven wrap translates with its sprocket, the spans stretch evenly)."""
-    n, ns = scene.n_bodies, len(scene.sprockets)
-    play = max(float(s.profile.seat_clearance) for s in scene.sprockets)
-    c0 = scene.sprockets[0].centre
-    for k in range(1, ns):
-        if not float(push[k]) > 0:
-            continue
-        e = _axis_dir(scene, k)
-        dist = jnp.sum((scene.sprockets[k].centre - c0) * e)
-        along = jnp.clip(jnp.sum((scene.q0[:, :2] - c0) * e, -1) / dist, 0.0, 1.0)
-        shift = 2 * play
-        xb = x[: 3 * n].reshape(n, 3).at[:, :2].add((shift / pitch) * along[:, None] * e)
-        x = x.at[: 3 * n].set(xb.reshape(-1)).at[3 * n + ns + k].set(shift / pitch)
-    return x
-
-
 def _rotating_bodies(scene: Scene) -> jax.Array:
     """Bodies that carry a torque: some force element or roller sits off their centre."""
     n = scene.n_bodies
@@ -133,12 +118,110 @@ def _solve(scene, force_scale, max_steps, x0, free, take_up):
     return sol.value, sol.result, jnp.max(jnp.abs(res)) * force_scale
 
 
+def _free_unknowns(scene, free, take_up):
+    """Which unknowns move: body positions; body angles of bodies that carry a torque;
+    sprocket angles where ``free``; axes under a take-up."""
+    rot = _rotating_bodies(scene)
+    body = jnp.stack([jnp.ones_like(rot), jnp.ones_like(rot), rot], -1).reshape(-1)
+    return jnp.concatenate([body, free, take_up > 0])
+
+
+def _accelerations(scene, pitch, force_scale):
+    """Acceleration per unit of scaled residual for each unknown (the bodies' own masses;
+    a sprocket axis moves with the mass of a disc of its inertia at its pitch radius)."""
+    m, j = scene.mass, scene.inertia
+    body = jnp.stack([force_scale / (m * pitch), force_scale / (m * pitch), force_scale / j], -1)
+    spr_j = jnp.stack([s.inertia for s in scene.sprockets])
+    spr_m = jnp.stack([2 * s.inertia / s.profile.pitch_radius**2 for s in scene.sprockets])
+    return jnp.concatenate([body.reshape(-1), force_scale / spr_j, force_scale / (spr_m * pitch)])
+
+
+@eqx.filter_jit
+def _tangent_stiffness(law, force):
+    """dF/dδ of ``law`` (largest over array-valued fields) where its static force is
+    ``force``: bisection on log δ over [1e-13, 1e-2] m."""
+
+    def f(log_d):
+        return jnp.max(law.normal_force(jnp.exp(log_d), 0.0, 1.0))
+
+    def bisect(_, lohi):
+        lo, hi = lohi
+        mid = 0.5 * (lo + hi)
+        below = f(mid) < force
+        return jnp.where(below, mid, lo), jnp.where(below, hi, mid)
+
+    _, hi = jax.lax.fori_loop(0, 80, bisect, (jnp.log(1e-13), jnp.log(1e-2)))
+    return jax.grad(f)(hi) / jnp.exp(hi)
+
+
+def _stable_step(scene: Scene, force: float) -> float:
+    """The symplectic-Euler stability limit 2/ω for the stiffest element at ``force``
+    on the lightest body (ω² ≤ 8k/m bounds a body between two such elements, turning
+    included)."""
+    ks = [_tangent_stiffness(scene.roller_law, force)]
+    for g in scene.pairs:
+        el = g.element
+        ks.append(jnp.max(el.stiffness) if isinstance(el, LinkSprings) else _tangent_stiffness(el.law, force))
+    k = max(float(v) for v in ks)
+    return 2.0 / math.sqrt(8.0 * k / float(jnp.min(scene.mass)))
+
+
+@eqx.filter_jit
+def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
+    """Dynamic relaxation with kinetic damping (module docstring). Returns the unknowns,
+    the largest true force residual [N], the steps taken and whether it stayed stable."""
+    pitch = scene.sprockets[0].profile.pitch
+    args = (scene, pitch, force_scale, _rotating_bodies(scene), free, take_up, x0, 0.0)
+    mask = _free_unknowns(scene, free, take_up)
+    acc = jnp.where(mask, _accelerations(scene, pitch, force_scale), 0.0)
+    weight = jnp.where(mask, 1.0 / jnp.where(mask, acc, 1.0), 0.0)  # kinetic energy ∝ Σ v²/acc
+
+    def residual(x):
+        return jnp.where(mask, _residual(x, args), 0.0)
+
+    r0 = residual(x0)
+    limit = 1e3 * jnp.maximum(force_scale, jnp.max(jnp.abs(r0)) * force_scale)  # unstable
+
+    def step(c):  # steps, x, v, kinetic energy, residual at x, best worst, step of best
+        i, x, v, ke_prev, r, best, at = c
+        v = v + dt * acc * r
+        ke = jnp.sum(weight * v * v)
+        peak = ke < ke_prev  # the kinetic energy stopped growing: take it out
+        v = jnp.where(peak, 0.0, v)
+        x = x + dt * v
+        r = residual(x)
+        worst = jnp.max(jnp.abs(r)) * force_scale
+        gain = worst < 0.5 * best
+        return (
+            i + 1, x, v, jnp.where(peak, 0.0, ke), r,
+            jnp.where(gain, worst, best), jnp.where(gain, i + 1, at),
+        )
+
+    def going(c):
+        i, _, _, _, r, _, at = c
+        worst = jnp.max(jnp.abs(r)) * force_scale
+        stalled = i - at > jnp.maximum(20_000, at)  # round-off floor: no halving for as long
+        return (i < max_steps) & (worst > tolerance) & (worst < limit) & ~stalled
+
+    worst0 = jnp.max(jnp.abs(r0)) * force_scale
+    init = (0, x0, jnp.zeros_like(x0), jnp.zeros((), x0.dtype), r0, worst0, 0)
+    steps, x, _, _, r, _, _ = jax.lax.while_loop(going, step, init)
+    worst = jnp.max(jnp.abs(r)) * force_scale
+    return x, worst, steps, jnp.isfinite(worst) & (worst < limit)
+
+
 def equilibrate(
-    scene: Scene, *, take_up: float = 0.0, max_steps: int = 1000, tolerance: float = 1e-6
+    scene: Scene,
+    *,
+    take_up: float = 0.0,
+    max_steps: int = 1000,
+    tolerance: float = 1e-6,
+    relax_steps: int = 400_000,
 ) -> Scene:
     """The scene with its initial positions, driven sprocket angles and (with ``take_up``)
-    driven axis positions at static equilibrium. Velocities are kept. Warns and returns
-    the input if the solve fails.
+    driven axis positions at static equilibrium (module docstring: dynamic relaxation,
+    then a Newton polish if needed). Velocities are kept. Warns and returns the input if
+    no equilibrium is found.
 
     Args:
         take_up: force [N] pushing each driven sprocket's axis away from the first
@@ -146,8 +229,10 @@ def equilibrate(
             then carries take_up/2 in each span before the load. After settling the axis
             stays where it came to rest. A closed chain needs this: its rollers' free play
             in the seats swallows any pretension built into the layout's link stretch.
+        max_steps: most steps of the trust-region polish.
         tolerance: largest force residual accepted, relative to the largest applied
             force (tension, take-up/2 or load torque over pitch radius).
+        relax_steps: most steps of the dynamic relaxation (each one force evaluation).
     """
     moving = scene
     scene = _at_rest(scene)
@@ -161,23 +246,21 @@ def equilibrate(
         force_scale = max(force_scale, float(s.load_torque / s.profile.pitch_radius))
     fs = jnp.asarray(force_scale)
     n = scene.n_bodies
-    pitch = scene.sprockets[0].profile.pitch
-    x = jnp.zeros(3 * n + 2 * ns)
-    # Sprockets held first, each driven axis pushed out by twice the largest seat clearance
-    # so the rollers' free play is taken up: the rollers settle into contact. Then the
-    # driven angles (load) and axes (take-up) are set free: from out of contact they would
-    # have no stiffness yet.
-    if bool(jnp.any(driven)):
-        x = _take_up_guess(scene, x, push, pitch)
-        x, _, _ = _solve(scene, fs, max_steps, x, jnp.zeros(ns, bool), jnp.zeros(ns))
-    x, result, worst = _solve(scene, fs, max_steps, x, driven, push)
+    x0 = jnp.zeros(3 * n + 2 * ns)
+    tol = tolerance * force_scale
+    dt = _stable_step(scene, 4 * force_scale)
+    for _ in range(4):  # an unstable step is halved
+        # relaxed far below the tolerance (or to its round-off floor): cheap, linear
+        # convergence, and the balance of moments is then as good as a Newton solve's
+        x, worst, _, stable = _relax(scene, fs, x0, driven, push, dt, relax_steps, 1e-4 * tol)
+        if bool(stable):
+            break
+        dt /= 2
+    if not (bool(stable) and float(worst) <= tol):
+        x, _, worst = _solve(scene, fs, max_steps, x if bool(stable) else x0, driven, push)
     moved = float(jnp.max(jnp.abs(x[: 3 * n].reshape(n, 3)[:, :2]))) if n else 0.0
     shifted = float(jnp.max(jnp.abs(x[3 * n + ns :])))
-    if (
-        result != optx.RESULTS.successful
-        or not float(worst) <= tolerance * force_scale
-        or not max(moved, shifted) < 1.0  # a settled chain moves by less than a pitch
-    ):
+    if not (float(worst) <= tol and max(moved, shifted) < 1.0):  # settles by < a pitch
         warnings.warn(
             f"static equilibrium of the initial configuration not found (largest force "
             f"residual {float(worst):.3g} N, largest move {max(moved, shifted):.3g} pitches): "
@@ -236,5 +319,7 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
     x0 = jnp.zeros(3 * n + 2 * ns, dtype=scene.q0.dtype)
     args = (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
     r = _residual(x0, args)
-    jac = jax.lax.stop_gradient(jax.jacfwd(_residual)(x0, args))
+    # the vanishing spring keeps bodies floating in free play (zero rows) from making the
+    # Jacobian singular; at x0 it adds nothing to r
+    jac = jax.lax.stop_gradient(jax.jacfwd(_residual)(x0, args[:-1] + (1e-6,)))
     return _finish(scene, -jnp.linalg.solve(jac, r))
