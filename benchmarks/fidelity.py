@@ -182,7 +182,9 @@ def chart(results, path):
     ax[0].set_xticks(range(len(keys)), keys)
     ax[0].set_ylabel("peak roller/tooth force per engagement [N]")
     ax[0].set_title("engagement peaks (dots), mean ± 2 standard errors")
-    ax[1].bar(keys, [results["variants"][k]["wall_per_rev_s"] for k in keys], color=["C0", "C1", "C2"])
+    ax[1].bar(
+        keys, [results["variants"][k]["wall_per_rev_s"] for k in keys], color=["C0", "C1", "C2"]
+    )
     ax[1].set_ylabel("wall time per revolution [s]")
     ax[1].set_title("cost (Tsit5, rtol 1e-6)")
     fig.tight_layout()

@@ -120,8 +120,13 @@ def test_clearance_drive_settles(rollers):
     balanced, the driven sprocket carrying its load, the spans tensioned by the take-up
     (tight − slack = load/R2, their mean the pretension) and nothing moved by a pitch."""
     sc = jc.scenes.drive(
-        "08B", teeth=(12, 24), n_links=40, load_torque=10.0, pretension=200.0,
-        fidelity="clearance", rollers_on_bush=rollers,
+        "08B",
+        teeth=(12, 24),
+        n_links=40,
+        load_torque=10.0,
+        pretension=200.0,
+        fidelity="clearance",
+        rollers_on_bush=rollers,
     )
     y = initial_state(sc)
     y = y._replace(v=jnp.zeros_like(y.v), omega=jnp.zeros_like(y.omega))
@@ -131,8 +136,14 @@ def test_clearance_drive_settles(rollers):
     np.testing.assert_allclose(float(fr.sprocket_torque[1]), 10.0, rtol=1e-6)
     # every pin/bush joint carries tension; spans: tight − slack = load / R2
     layout = jc.scenes.drive(
-        "08B", teeth=(12, 24), n_links=40, load_torque=10.0, pretension=200.0,
-        fidelity="clearance", rollers_on_bush=rollers, settle=False,
+        "08B",
+        teeth=(12, 24),
+        n_links=40,
+        load_torque=10.0,
+        pretension=200.0,
+        fidelity="clearance",
+        rollers_on_bush=rollers,
+        settle=False,
     )
     moved = np.abs(np.asarray(sc.q0[:, :2] - layout.q0[:, :2])).max()
     assert moved < 0.1 * 0.0127

@@ -161,7 +161,11 @@ def _stable_step(scene: Scene, force: float) -> float:
     ks = [_tangent_stiffness(scene.roller_law, force)]
     for g in scene.pairs:
         el = g.element
-        ks.append(jnp.max(el.stiffness) if isinstance(el, LinkSprings) else _tangent_stiffness(el.law, force))
+        ks.append(
+            jnp.max(el.stiffness)
+            if isinstance(el, LinkSprings)
+            else _tangent_stiffness(el.law, force)
+        )
     k = max(float(v) for v in ks)
     return 2.0 / math.sqrt(8.0 * k / float(jnp.min(scene.mass)))
 
@@ -193,8 +197,13 @@ def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
         worst = jnp.max(jnp.abs(r)) * force_scale
         gain = worst < 0.5 * best
         return (
-            i + 1, x, v, jnp.where(peak, 0.0, ke), r,
-            jnp.where(gain, worst, best), jnp.where(gain, i + 1, at),
+            i + 1,
+            x,
+            v,
+            jnp.where(peak, 0.0, ke),
+            r,
+            jnp.where(gain, worst, best),
+            jnp.where(gain, i + 1, at),
         )
 
     def going(c):
