@@ -12,7 +12,11 @@ Measured per case:
   µs/step ÷ (stages × µs per call) — Tsit5 makes 6 new evaluations per step, plus one for
   the per-step peak-force record;
 * compile time of ``simulate`` (first call minus a warm call) for 50/100/200 links;
-* lumped vs clearance on the same drive: peak roller force, span tension, cost ratio.
+* lumped vs clearance on the same drive (all settled): peak roller force, span tension,
+  cost ratio;
+* the clearance drive (rollers on joints) at Tsit5 rtol 1e-6 / 1e-5 / 1e-4: wall per
+  revolution against the peak force's error relative to rtol 1e-9 (the 60 s target is
+  judged at a setting whose peak is within 2 %).
 """
 
 from __future__ import annotations
@@ -150,6 +154,52 @@ def fidelity_comparison(t_frac, n_links):
     return out, sols
 
 
+def clearance_drive_speed(t_frac, n_links, settings):
+    """The clearance drive (rollers on their joints, settled) at several solver settings:
+    wall per driver revolution against the error of the peak roller force over the same
+    window, relative to Tsit5 at rtol 1e-9. Tolerances as in ``simulate``: atol = 1e-3·rtol.
+    """
+    import diffrax
+
+    rev = 60 / 1000
+    sc = jc.scenes.drive(
+        "08B",
+        teeth=(18, 36),
+        n_links=n_links,
+        speed_rpm=1000,
+        load_torque=20.0,
+        pretension=200.0,
+        fidelity="clearance",
+    )
+    t1 = t_frac * rev
+    solvers = {"Tsit5": diffrax.Tsit5(), "Bosh3": diffrax.Bosh3(), "Dopri5": diffrax.Dopri5()}
+    ref, _ = timed_run(sc, t1, n_save=3, rtol=1e-9, atol=1e-12, max_steps=2_000_000)
+    peak_ref = float(ref.peak_contact_force)
+    steps = int(ref.stats["num_steps"])
+    print(f"  reference (Tsit5 rtol 1e-9): peak {peak_ref:.1f} N, {steps} steps")
+    rows = []
+    for name, rtol in settings:
+        kw = dict(solver=solvers[name], rtol=rtol, atol=rtol * 1e-3, n_save=3, max_steps=1_000_000)
+        timed_run(sc, t1, **kw)  # compile
+        sol, wall = min((timed_run(sc, t1, **kw) for _ in range(2)), key=lambda r: r[1])
+        row = {
+            "solver": name,
+            "rtol": rtol,
+            "steps": int(sol.stats["num_steps"]),
+            "wall_per_rev_s": wall * rev / t1,
+            "peak_N": float(sol.peak_contact_force),
+            "peak_err": float(sol.peak_contact_force) / peak_ref - 1,
+            "result": sol.message or "successful",
+        }
+        rows.append(row)
+        print(
+            f"  {name:7s} rtol {rtol:.0e}: {row['steps']:7d} steps, {row['wall_per_rev_s']:6.1f} "
+            f"s/rev, peak {row['peak_N']:.1f} N ({row['peak_err']:+.2%})",
+            flush=True,
+        )
+    return {"t1_s": t1, "n_links": n_links, "reference_peak_N": peak_ref, "rows": rows}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -192,6 +242,12 @@ def main(argv=None):
     print("lumped vs clearance on one drive:")
     comp, sols = fidelity_comparison(0.01 if quick else 0.1, 50 if quick else 100)
     results["fidelity"] = comp
+    print("clearance drive (rollers on joints), solver settings against a tight reference:")
+    results["clearance_drive_speed"] = clearance_drive_speed(
+        0.01 if quick else 0.1,
+        50 if quick else 100,
+        [("Tsit5", 1e-4)] if quick else [("Tsit5", 1e-6), ("Tsit5", 1e-5), ("Tsit5", 1e-4)],
+    )
     comp_rows = results["compile"]
     for fid in {r["fidelity"] for r in comp_rows}:
         c = {r["links"]: r["compile_s"] for r in comp_rows if r["fidelity"] == fid}
@@ -206,6 +262,14 @@ def main(argv=None):
         results["targets"]["clearance_drive_s_per_rev_rollers_lumped"] = comp[
             "clearance/rollers-lumped"
         ]["wall_per_rev_s"]
+    fast = [
+        r
+        for r in results["clearance_drive_speed"]["rows"]
+        if r["wall_per_rev_s"] <= 60.0 and abs(r["peak_err"]) <= 0.02
+    ]
+    results["targets"]["clearance_drive_60s_met_at"] = (
+        {k: fast[0][k] for k in ("solver", "rtol", "wall_per_rev_s", "peak_err")} if fast else None
+    )
     print("targets:", json.dumps(results["targets"], indent=1))
     (args.out / "dynamics.json").write_text(json.dumps(results, indent=1))
     _chart(results, sols, args.out / "dynamics.png")

@@ -11,7 +11,7 @@ def test_dynamics_benchmark_quick(tmp_path):
 
     main(["--quick", "--out", str(tmp_path)])
     res = json.loads((tmp_path / "dynamics.json").read_text())
-    assert {"engagement", "compile", "fidelity", "targets"} <= set(res)
+    assert {"engagement", "compile", "fidelity", "clearance_drive_speed", "targets"} <= set(res)
     assert res["engagement_rollers"]["cost_ratio"] > 0
     for row in res["engagement"].values():
         assert row["steps"] > 0 and row["result"] == "successful"
@@ -29,3 +29,16 @@ def test_stability_benchmark_quick(tmp_path):
     # the measured boundary is the linear bound of the scene's modes (Heun, Tsit5)
     assert all(0.8 < r["measured_over_horizon_bound"] < 1.3 for r in rows if r["method"] != "Euler")
     assert (tmp_path / "stability.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_fidelity_benchmark_quick(tmp_path):
+    from benchmarks.fidelity import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    for v in res["variants"].values():
+        assert all(m["ok"] for m in v["members"])
+        # every variant starts settled: the entry span carries its 1000 N
+        assert abs(v["tight_span_mean_N"]["mean"] / 1000.0 - 1) < 0.05
+    assert res["rollers_fixed_vs_on_joint"]["cost_ratio"] > 0
+    assert (tmp_path / "fidelity.png").stat().st_size > 10_000

@@ -303,6 +303,7 @@ def _at_rest(scene: Scene) -> Scene:
     return eqx.tree_at(lambda sc: sc.anchors.speed, scene, jnp.zeros_like(scene.anchors.speed))
 
 
+@eqx.filter_jit  # called eagerly, the Jacobian would dispatch op by op (30 s)
 def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
     """One Newton step of the statics from ``scene``'s current start: the equilibrium of a
     settled scene whose parameters (a tooth profile, a tension) were changed a little.
