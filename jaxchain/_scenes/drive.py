@@ -82,9 +82,12 @@ def drive(
     wrap arcs, straight spans of whole pitches, the centre distance C adjusted (by less
     than a pitch) so the loop closes with an even link count (give ``centre_distance`` or
     ``n_links``; default 40 pitches), the chain laid out stretched by ``pretension``, and
-    velocities of rigid transport at the driver speed. What remains is a small start-up
-    transient: the seat clearance and the polygonal mismatch of the spans' end velocities,
-    and the load, which is ramped in smoothly over ``load_ramp`` (default: one driver
+    velocities of rigid transport at the driver speed; then (``settle``, the default) the
+    static equilibrium of that layout with the driver held: rollers in their seats, joints
+    closed, the driven axis moved by a take-up of 2·pretension and the full load carried.
+    What remains is a small start-up transient: the polygonal mismatch of the spans' end
+    velocities. From the raw layout (``settle=False``) the seat and joint clearances are
+    open and the load is ramped in smoothly over ``load_ramp`` (default: one driver
     revolution) so the tight span stretches without a shock.
 
     Args:
