@@ -158,6 +158,7 @@ def _stable_step(scene: Scene, force: float) -> float:
     """The symplectic-Euler stability limit 2/ω for the stiffest element at ``force``
     on the lightest body (ω² ≤ 8k/m bounds a body between two such elements, turning
     included)."""
+    force = jnp.asarray(force, float)
     ks = [_tangent_stiffness(scene.roller_law, force)]
     for g in scene.pairs:
         el = g.element
@@ -261,7 +262,9 @@ def equilibrate(
     for _ in range(4):  # an unstable step is halved
         # relaxed far below the tolerance (or to its round-off floor): cheap, linear
         # convergence, and the balance of moments is then as good as a Newton solve's
-        x, worst, _, stable = _relax(scene, fs, x0, driven, push, dt, relax_steps, 1e-4 * tol)
+        x, worst, _, stable = _relax(
+            scene, fs, x0, driven, push, *map(jnp.asarray, (dt, relax_steps, 1e-4 * tol))
+        )  # arrays, not Python numbers: a new step or tolerance does not recompile
         if bool(stable):
             break
         dt /= 2
