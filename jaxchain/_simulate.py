@@ -34,7 +34,9 @@ class Result(eqx.Enumeration):
         "Loosen rtol/atol, lower dtmin, or widen the contact regularization."
     )
     diverged = (
-        "The solution became non-finite (NaN/inf) or flew apart: the solve diverged. With "
+        "The solution became non-finite (NaN/inf) or flew apart (rollers thrown out of the "
+        "scene, or faster than 5 × (pitch-line speed + reference impact speed)): the solve "
+        "diverged. With "
         "fixed steps the step is above the explicit stability limit of the stiffest contact or "
         "link "
         "(measured on the engagement scene: h·ω_max ≈ 0.2 for Euler, which needs damping to be "
@@ -53,6 +55,11 @@ class Result(eqx.Enumeration):
         "more slots, or contact_slots=None to check every roller."
     )
     internal = "diffrax reported an internal failure; see the diffrax result in Solution.stats."
+
+
+# a roller faster than this many times (pitch-line speed + reference impact speed) has
+# flown apart (the solve diverged)
+_FLYING_APART = 5.0
 
 
 def _classify(diffrax_result, finite) -> Result:
@@ -152,6 +159,16 @@ def _solve(scene, t0, t1, ts, solver, controller, dt0, max_steps, adjoint, progr
         jnp.stack([jnp.max(jnp.abs(s.centre)) for s in scene.sprockets])
     )
     finite = finite & jnp.all(jnp.abs(saved["roller_position"]) < 1e3 * size)
+    # ... or while it is still growing: an explicit step above its stability limit makes
+    # the stiffest mode ring up, and the rollers outrun anything the drive can give them
+    # (measured on the engagement: ≤ 1.1× the pitch-line speed when right, 8× at a peak
+    # force 5× too high, 10⁵× later)
+    chain_speed = jnp.max(
+        jnp.stack([jnp.abs(s.speed) * s.profile.pitch_radius for s in scene.sprockets])
+    )
+    speed_limit = _FLYING_APART * (chain_speed + scene.impact_speed)
+    roller_speed = jnp.sqrt(jnp.sum(saved["roller_velocity"] ** 2, -1))
+    finite = finite & jnp.all(roller_speed < speed_limit)
     result = _classify(sol.result, finite)
     slots_ok = jnp.all(saved.pop("contact_slots_ok"))
     result = Result.where(
