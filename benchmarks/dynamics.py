@@ -119,22 +119,27 @@ def compile_times(fidelities, links=(50, 100, 200)):
     return rows
 
 
+def comparison_drive(n_links, fidelity, rollers_on_bush):
+    """The settled 18/36 drive both drive studies use: 1000 rpm, 20 N·m, 200 N."""
+    return jc.scenes.drive(
+        "08B",
+        teeth=(18, 36),
+        n_links=n_links,
+        speed_rpm=1000,
+        load_torque=20.0,
+        pretension=200.0,
+        fidelity=fidelity,
+        rollers_on_bush=rollers_on_bush,
+    )
+
+
 def fidelity_comparison(t_frac, n_links):
     """Same drive, lumped vs clearance (rollers on joints, and fixed to the bushes)."""
     rev = 60 / 1000
     out = {}
     sols = {}
     for fid, rob in (("lumped", "joint"), ("clearance", "lumped"), ("clearance", "joint")):
-        sc = jc.scenes.drive(
-            "08B",
-            teeth=(18, 36),
-            n_links=n_links,
-            speed_rpm=1000,
-            load_torque=20.0,
-            pretension=200.0,
-            fidelity=fid,
-            rollers_on_bush=rob,
-        )
+        sc = comparison_drive(n_links, fid, rob)
         key = fid if fid == "lumped" else f"clearance/rollers-{rob}"
         row, sol = case(f"drive {n_links} links {key}", sc, t_frac * rev, rev)
         tension = np.asarray(sol.link_tension)
@@ -162,15 +167,7 @@ def clearance_drive_speed(t_frac, n_links, settings):
     import diffrax
 
     rev = 60 / 1000
-    sc = jc.scenes.drive(
-        "08B",
-        teeth=(18, 36),
-        n_links=n_links,
-        speed_rpm=1000,
-        load_torque=20.0,
-        pretension=200.0,
-        fidelity="clearance",
-    )
+    sc = comparison_drive(n_links, "clearance", "joint")
     t1 = t_frac * rev
     solvers = {"Tsit5": diffrax.Tsit5(), "Bosh3": diffrax.Bosh3(), "Dopri5": diffrax.Dopri5()}
     ref, _ = timed_run(sc, t1, n_save=3, rtol=1e-9, atol=1e-12, max_steps=2_000_000)

@@ -22,3 +22,18 @@ def tree_allclose(a, b, rtol=1e-7, atol=0.0):
         np.allclose(np.asarray(x), np.asarray(y), rtol=rtol, atol=atol)
         for x, y in zip(la, lb, strict=True)
     )
+
+
+def count_vector_field_calls(monkeypatch):
+    """A list that grows by one each time ``simulate`` traces (calls) the vector field."""
+    import jaxchain._simulate as S
+
+    calls = []
+    real = S.vector_field
+
+    def counting(t, y, args):
+        calls.append(1)
+        return real(t, y, args)
+
+    monkeypatch.setattr(S, "vector_field", counting)
+    return calls

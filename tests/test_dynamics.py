@@ -12,6 +12,8 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import energy, forces, initial_state
 
+from helpers import count_vector_field_calls
+
 
 def period(rpm, z):
     return 60.0 / rpm / z
@@ -119,8 +121,7 @@ def test_clearance_drive_settles(rollers):
     rollers' free play on their bushes too) starts in static equilibrium: every body
     balanced, the driven sprocket carrying its load, the spans tensioned by the take-up
     (tight − slack = load/R2, their mean the pretension) and nothing moved by a pitch."""
-    sc = jc.scenes.drive(
-        "08B",
+    kw = dict(
         teeth=(12, 24),
         n_links=40,
         load_torque=10.0,
@@ -128,6 +129,7 @@ def test_clearance_drive_settles(rollers):
         fidelity="clearance",
         rollers_on_bush=rollers,
     )
+    sc = jc.scenes.drive("08B", **kw)
     y = initial_state(sc)
     y = y._replace(v=jnp.zeros_like(y.v), omega=jnp.zeros_like(y.omega))
     fr = forces(0.0, y, sc)
@@ -135,16 +137,7 @@ def test_clearance_drive_settles(rollers):
     assert float(jnp.max(jnp.abs(fr.body[:, :2]))) <= 1e-6 * force_scale
     np.testing.assert_allclose(float(fr.sprocket_torque[1]), 10.0, rtol=1e-6)
     # every pin/bush joint carries tension; spans: tight − slack = load / R2
-    layout = jc.scenes.drive(
-        "08B",
-        teeth=(12, 24),
-        n_links=40,
-        load_torque=10.0,
-        pretension=200.0,
-        fidelity="clearance",
-        rollers_on_bush=rollers,
-        settle=False,
-    )
+    layout = jc.scenes.drive("08B", **kw, settle=False)
     moved = np.abs(np.asarray(sc.q0[:, :2] - layout.q0[:, :2])).max()
     assert moved < 0.1 * 0.0127
     tension = np.asarray(fr.element_tension)
@@ -267,16 +260,7 @@ def test_failures_are_values(engagement18):
 
 
 def test_second_call_does_not_retrace(engagement18, monkeypatch):
-    import jaxchain._simulate as S
-
-    calls = []
-    real = S.vector_field
-
-    def counting(t, y, args):
-        calls.append(1)
-        return real(t, y, args)
-
-    monkeypatch.setattr(S, "vector_field", counting)
+    calls = count_vector_field_calls(monkeypatch)
     T = period(1000, 18)
     sc2 = jax.tree_util.tree_map(lambda x: x, engagement18)
     sc2 = __import__("equinox").tree_at(lambda s: s.sprockets[0].speed, sc2, jnp.asarray(110.0))

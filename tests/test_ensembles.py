@@ -27,6 +27,8 @@ import pytest
 import jaxchain as jc
 from jaxchain._ensemble import _group_cost, _padded, _plan
 
+from helpers import count_vector_field_calls
+
 ROOT = Path(__file__).resolve().parents[1]
 SPEEDS = np.array([300.0, 800.0, 1400.0, 2000.0])  # rpm
 T1 = 1.5e-3  # s: the rollers snap into their seats (violent start), ~0.2 tooth period
@@ -136,16 +138,8 @@ def failures_are_per_member(scenes, one_batch):
 
 def second_call_does_not_retrace(scenes, one_batch, monkeypatch):
     import jaxchain._ensemble as E
-    import jaxchain._simulate as S
 
-    calls = []
-    real = S.vector_field
-
-    def counting(t, y, args):
-        calls.append(1)
-        return real(t, y, args)
-
-    monkeypatch.setattr(S, "vector_field", counting)
+    calls = count_vector_field_calls(monkeypatch)
     cache = E._solve_batch._cached._cache_size()
     # new speeds, a new profile leaf, new t1 and steps: same structure and batch size
     new = [strand(r) for r in SPEEDS * 1.1]
