@@ -185,7 +185,8 @@ def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
         return jnp.where(mask, _residual(x, args), 0.0)
 
     r0 = residual(x0)
-    limit = 1e3 * jnp.maximum(force_scale, jnp.max(jnp.abs(r0)) * force_scale)  # unstable
+    worst0 = jnp.max(jnp.abs(r0)) * force_scale
+    limit = 1e3 * jnp.maximum(force_scale, worst0)  # beyond it: unstable
 
     def step(c):  # steps, x, v, kinetic energy, residual at x, best worst, step of best
         i, x, v, ke_prev, r, best, at = c
@@ -213,7 +214,6 @@ def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
         stalled = i - at > jnp.maximum(20_000, at)  # round-off floor: no halving for as long
         return (i < max_steps) & (worst > tolerance) & (worst < limit) & ~stalled
 
-    worst0 = jnp.max(jnp.abs(r0)) * force_scale
     init = (0, x0, jnp.zeros_like(x0), jnp.zeros((), x0.dtype), r0, worst0, 0)
     steps, x, _, _, r, _, _ = jax.lax.while_loop(going, step, init)
     worst = jnp.max(jnp.abs(r)) * force_scale
