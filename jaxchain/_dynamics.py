@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._gap import gap_contact
+from ._gap import GapShape, gap_contact
 from ._numerics import cross2, safe_norm, safe_normalize
 from ._scene import LinkSprings, Scene
 
@@ -70,6 +70,80 @@ def _scatter(n, body, arm, f):
     return jax.ops.segment_sum(gen, body, num_segments=n)
 
 
+class RollerContacts(NamedTuple):
+    """The roller/tooth contacts of one instant (part of :class:`Forces`)."""
+
+    force: Float[Array, "R 2"]  # total contact force on each roller (all sprockets) [N]
+    arm: Float[Array, "R 2"]  # roller centre from its body's origin [m]
+    normal: Float[Array, "S R"]  # normal force per sprocket and roller [N]
+    sprocket_torque: Float[Array, " S"]
+    sprocket_force: Float[Array, "S 2"]
+    slots_ok: Array
+
+
+def _contact_slots(scene: Scene, n_rollers: int) -> int | None:
+    """Rollers checked per sprocket (static): the most any sprocket asks for, or None
+    (every roller) when one asks for all."""
+    slots = [s.contact_slots for s in scene.sprockets]
+    if any(k is None or k >= n_rollers for k in slots):
+        return None
+    return max(slots)
+
+
+def roller_contacts(y: DriveState, scene: Scene) -> RollerContacts:
+    """Rollers against every sprocket (each roller sees its nearest gap: O(1) per pair);
+    all the chain's elements but these are skipped (what the per-step peak record needs).
+
+    One vmapped evaluation over the sprockets (their tooth shapes stacked): the contact
+    appears once in the traced program, so its size and the gradient's compile time do
+    not grow with the number of sprockets."""
+    xr, vr, arm_r = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+    r = scene.roller_radius
+    n_r = xr.shape[0]
+    slots = _contact_slots(scene, n_r)
+    shapes = GapShape.stack([s.profile for s in scene.sprockets])
+    centres = jnp.stack([s.centre for s in scene.sprockets])
+
+    def one(shape, centre, theta, omega):
+        c, s = jnp.cos(theta), jnp.sin(theta)
+        rel_all = xr - centre
+        if slots is not None:
+            # only the nearest rollers can touch: the others' force is exactly zero
+            d2 = jnp.sum(rel_all * rel_all, -1)
+            neg, sel = jax.lax.top_k(-jax.lax.stop_gradient(d2), slots)
+            # all tooth material lies inside the tip circle: a roller whose centre is
+            # farther than tip radius + roller radius (+ margin) cannot touch a tooth
+            reach = shape.tip_diameter / 2 + 1.05 * r
+            ok = jnp.min(neg) < -(reach**2)
+        else:
+            sel = jnp.arange(n_r)
+            ok = jnp.asarray(True)
+        rel, vsel = rel_all[sel], vr[sel]
+        local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+        depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(shape, local)
+        nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
+        arm_s = rel - r * nrm  # contact point on the roller surface, from the axis
+        vsurf = omega * jnp.stack([-arm_s[:, 1], arm_s[:, 0]], -1)
+        vrel = vsel - vsurf
+        approach = -jnp.sum(nrm * vrel, -1)
+        fn = scene.roller_law.normal_force(depth, approach, scene.impact_speed)
+        f = fn[:, None] * nrm
+        if scene.friction is not None:
+            tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
+            slip = jnp.sum(tang * vrel, -1)
+            f = f + scene.friction.force(fn, slip)[:, None] * tang
+        return (
+            jnp.zeros_like(xr).at[sel].add(f),
+            jnp.zeros(n_r, fn.dtype).at[sel].add(fn),
+            jnp.sum(cross2(arm_s, -f)),
+            -jnp.sum(f, axis=0),
+            ok,
+        )
+
+    f, normal, torque, pull, ok = jax.vmap(one)(shapes, centres, y.theta, y.omega)
+    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull, jnp.all(ok))
+
+
 def forces(t, y: DriveState, scene: Scene) -> Forces:
     n = scene.n_bodies
     q, v = y.q, y.v
@@ -100,52 +174,15 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         f = f + an.stiffness[:, None] * perp + an.damping[:, None] * relv
         total = total.at[an.body, :2].add(f)
 
-    # rollers against every sprocket (each roller sees its nearest gap: O(1) per pair)
-    xr, vr, arm_r = _points(q, v, scene.roller_body, scene.roller_offset)
-    r = scene.roller_radius
-    normals, torques, pulls = [], [], []
-    roller_f = jnp.zeros_like(xr)
-    slots_ok = jnp.asarray(True)
-    n_r = xr.shape[0]
-    for k, spr in enumerate(scene.sprockets):
-        c, s = jnp.cos(y.theta[k]), jnp.sin(y.theta[k])
-        rel_all = xr - spr.centre
-        if spr.contact_slots is not None and spr.contact_slots < n_r:
-            # only the nearest rollers can touch: the others' force is exactly zero
-            d2 = jnp.sum(rel_all * rel_all, -1)
-            neg, sel = jax.lax.top_k(-jax.lax.stop_gradient(d2), spr.contact_slots)
-            # all tooth material lies inside the tip circle: a roller whose centre is
-            # farther than tip radius + roller radius (+ margin) cannot touch a tooth
-            reach = spr.profile.tip_diameter / 2 + 1.05 * r
-            slots_ok = slots_ok & (jnp.min(neg) < -(reach**2))
-        else:
-            sel = jnp.arange(n_r)
-        rel, vsel = rel_all[sel], vr[sel]
-        local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
-        depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
-        nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
-        arm_s = rel - r * nrm  # contact point on the roller surface, from the axis
-        vsurf = y.omega[k] * jnp.stack([-arm_s[:, 1], arm_s[:, 0]], -1)
-        vrel = vsel - vsurf
-        approach = -jnp.sum(nrm * vrel, -1)
-        fn = scene.roller_law.normal_force(depth, approach, scene.impact_speed)
-        f = fn[:, None] * nrm
-        if scene.friction is not None:
-            tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
-            slip = jnp.sum(tang * vrel, -1)
-            f = f + scene.friction.force(fn, slip)[:, None] * tang
-        roller_f = roller_f.at[sel].add(f)
-        normals.append(jnp.zeros(n_r, fn.dtype).at[sel].add(fn))
-        torques.append(jnp.sum(cross2(arm_s, -f)))
-        pulls.append(-jnp.sum(f, axis=0))
-    total = total + _scatter(n, scene.roller_body, arm_r, roller_f)
+    rc = roller_contacts(y, scene)
+    total = total + _scatter(n, scene.roller_body, rc.arm, rc.force)
     total = total.at[:, :2].add(scene.mass[:, None] * scene.gravity)
     return Forces(
         body=total,
-        roller_normal=jnp.stack(normals),
-        sprocket_torque=jnp.stack(torques),
-        sprocket_force=jnp.stack(pulls),
-        slots_ok=slots_ok,
+        roller_normal=rc.normal,
+        sprocket_torque=rc.sprocket_torque,
+        sprocket_force=rc.sprocket_force,
+        slots_ok=rc.slots_ok,
         element_tension=jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype),
     )
 

@@ -23,17 +23,56 @@ everywhere (double ``where`` around every norm and square root).
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Sequence
+
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ._numerics import cross2, safe_norm, safe_normalize
-from ._profile import ToothProfile
+from ._profile import ProfileGeometry, ToothProfile, _geometry
 
-__all__ = ["gap_contact", "signed_distance", "nearest_gap"]
+__all__ = ["gap_contact", "signed_distance", "nearest_gap", "GapShape"]
 
 
-def nearest_gap(profile: ToothProfile, point: Float[Array, 2]) -> Array:
+class GapShape(eqx.Module):
+    """What the contact reads of a :class:`ToothProfile`, with the tooth count an array
+    leaf instead of static: the shapes of sprockets with different tooth counts stack into
+    one pytree, and the contact of every sprocket is one vmapped evaluation (one copy of
+    the contact in the traced program, whatever the number of sprockets)."""
+
+    teeth: Float[Array, ""]
+    pitch: Float[Array, ""]
+    roller_diameter: Float[Array, ""]
+    seating_radius: Float[Array, ""]
+    seating_angle: Float[Array, ""]
+    flank_radius: Float[Array, ""]
+    tip_diameter: Float[Array, ""]
+
+    @classmethod
+    def stack(cls, profiles: Sequence[ToothProfile]) -> GapShape:
+        """The profiles' shapes along a leading axis (one per profile)."""
+
+        def field(name):
+            dtype = jnp.result_type(profiles[0].pitch)
+            return jnp.stack([jnp.asarray(getattr(p, name), dtype=dtype) for p in profiles])
+
+        return cls(*(field(f.name) for f in dataclasses.fields(cls)))
+
+    @property
+    def roller_radius(self) -> Array:
+        return self.roller_diameter / 2
+
+    def geometry(self) -> ProfileGeometry:
+        return _geometry(
+            self.teeth, self.pitch, self.seating_radius, self.seating_angle,
+            self.flank_radius, self.tip_diameter,
+        )  # fmt: skip
+
+
+def nearest_gap(profile: ToothProfile | GapShape, point: Float[Array, 2]) -> Array:
     """Index k (integer array, in [0, z)) of the tooth gap nearest to ``point`` (sprocket frame)."""
     z = profile.teeth
     theta = jnp.arctan2(point[1], point[0])
@@ -47,7 +86,7 @@ def _rot(a):
 
 
 def signed_distance(
-    profile: ToothProfile, point: Float[Array, 2]
+    profile: ToothProfile | GapShape, point: Float[Array, 2]
 ) -> tuple[Float[Array, ""], Float[Array, 2]]:
     """Signed distance [m] from ``point`` (sprocket frame) to the tooth material, positive in
     the gap, and its gradient (unit normal, sprocket frame)."""
@@ -132,7 +171,7 @@ def _gap_sign(q, c, jn, f, kc, ra, ri, re):
 
 
 def gap_contact(
-    profile: ToothProfile, point: Float[Array, 2] | ArrayLike
+    profile: ToothProfile | GapShape, point: Float[Array, 2] | ArrayLike
 ) -> tuple[Float[Array, ""], Float[Array, 2]]:
     """Contact of a roller centred at ``point`` with its nearest tooth gap.
 
@@ -147,7 +186,7 @@ def gap_contact(
 
     Defined, finite and continuous for any point in the plane; differentiable in
     ``point`` and in the profile's array leaves; jit- and vmap-able (vmap over points, or
-    over profiles built with the same ``teeth``).
+    over profiles built with the same ``teeth``, or over a :class:`GapShape` stack).
     """
     sd, normal = signed_distance(profile, point)
     return profile.roller_radius - sd, normal

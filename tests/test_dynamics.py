@@ -166,6 +166,36 @@ def test_internal_forces_cancel(small_drive):
     assert float(jnp.max(jnp.abs(total))) < 1e-8 * float(jnp.max(jnp.abs(fr.body)))
 
 
+def test_sprockets_of_different_teeth_in_one_vmapped_contact(small_drive):
+    """The roller contacts of all sprockets are one vmapped evaluation (tooth shapes
+    stacked, the tooth count an array): each sprocket's normal forces and torque equal a
+    direct evaluation of its own profile (9 and 18 teeth), every roller checked."""
+    from jaxchain._gap import gap_contact
+
+    sc = small_drive
+    y = initial_state(sc)
+    key = jax.random.PRNGKey(1)
+    y = y._replace(q=y.q.at[:, :2].add(2e-5 * jax.random.normal(key, y.q[:, :2].shape)))
+    fr = forces(0.0, y, sc)
+    xr = y.q[sc.roller_body, :2]  # rollers sit on their bodies' origins here
+    assert float(jnp.max(jnp.abs(sc.roller_offset))) == 0.0
+    vr = y.v[sc.roller_body, :2]
+    for k, spr in enumerate(sc.sprockets):
+        c, s = jnp.cos(y.theta[k]), jnp.sin(y.theta[k])
+        rel = xr - spr.centre
+        local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+        depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
+        nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
+        arm = rel - sc.roller_radius * nrm
+        vrel = vr - y.omega[k] * jnp.stack([-arm[:, 1], arm[:, 0]], -1)
+        fn = sc.roller_law.normal_force(depth, -jnp.sum(nrm * vrel, -1), sc.impact_speed)
+        assert int(jnp.sum(fn > 1.0)) >= 1  # the check sees real contacts on both
+        np.testing.assert_allclose(fr.roller_normal[k], fn, rtol=1e-12, atol=1e-9)
+        torque = jnp.sum(arm[:, 0] * -fn * nrm[:, 1] - arm[:, 1] * -fn * nrm[:, 0])
+        if sc.friction is None:
+            np.testing.assert_allclose(fr.sprocket_torque[k], torque, rtol=1e-10)
+
+
 def test_energy_balance_without_dissipation():
     """Restitution 1, undamped links, no friction, no load: kinetic + elastic (links and
     contact potentials) changes exactly by the driver's work ∫ −τ_chain·ω1 dt."""
@@ -357,3 +387,18 @@ def test_clearance_fidelity_balances_and_runs():
     fr = forces(0.0, y, drive)
     total = jnp.sum(fr.body[:, :2], 0) + jnp.sum(fr.sprocket_force, 0)
     assert float(jnp.max(jnp.abs(total))) <= 1e-8 * max(1.0, float(jnp.max(jnp.abs(fr.body))))
+
+
+def test_fixed_step_gradients_checkpoint_every_step(engagement18):
+    """Reverse mode through a fixed-step solve checkpoints every step when that fits in
+    CHECKPOINT_MEMORY (nothing recomputed); adaptive or too long: diffrax's default."""
+    from jaxchain._simulate import CHECKPOINT_MEMORY, _default_adjoint
+
+    sc, fixed = engagement18, diffrax.ConstantStepSize()
+    pid = diffrax.PIDController(rtol=1e-6, atol=1e-9)
+    assert _default_adjoint(sc, fixed, 0.0, 1e-3, 1e-6, 2000).checkpoints == 1000
+    assert _default_adjoint(sc, fixed, 0.0, 1e-3, np.array([1e-6, 2e-6]), 2000).checkpoints == 1000
+    assert _default_adjoint(sc, pid, 0.0, 1e-3, None, 2000).checkpoints is None
+    assert _default_adjoint(sc, fixed, 0.0, 1e-3, 1e-6, 999).checkpoints is None  # > max_steps
+    n_big = CHECKPOINT_MEMORY // (3 * 2 * sc.q0.size * 8) + 1
+    assert _default_adjoint(sc, fixed, 0.0, n_big * 1e-6, 1e-6, 10 * n_big).checkpoints is None
