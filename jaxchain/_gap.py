@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._numerics import cross2, safe_norm, safe_normalize
+from ._numerics import cross2
 from ._profile import ProfileGeometry, ToothProfile, _geometry
 
 __all__ = ["gap_contact", "signed_distance", "nearest_gap", "GapShape"]
@@ -106,52 +106,50 @@ def signed_distance(
     # ---- sign: polar-graph test (piecewise constant, no gradient) -----------------
     s = _gap_sign(*jax.lax.stop_gradient((q, c, jn, f, kc, ra, ri, re)))
 
-    # ---- per-arc signed value (positive in the gap) and its gradient -------------
-    # seat: concave arc about c; interior iff q − c lies between the bottom and J rays.
+    # ---- the five distances, as one (5, 2) batch (few ops: compile and run time) ----
+    # from the seat centre c, the flank centre F, the axis (tip circle), the end points
+    # J and K; each unit vector falls back to a fixed direction at its own centre
     u = (jn - c) / ri
-    vc = q - c
-    n_seat_in = -safe_normalize(vc, jnp.array([-1.0, 0.0], dtype=q.dtype))
-    g_seat = ri - safe_norm(vc)
-    seat_interior = cross2(u, vc) >= 0
+    zero = jnp.zeros_like(c)
+    rel = q - jnp.stack([c, f, zero, jn, kc])
+    sq = jnp.sum(rel * rel, -1)
+    pos = sq > 0
+    inv = jnp.where(pos, jax.lax.rsqrt(jnp.where(pos, sq, 1.0)), 0.0)
+    dist = sq * inv
+    x_axis = jnp.array([1.0, 0.0], dtype=q.dtype)
+    fallback = jnp.stack([-x_axis, -u, x_axis, -u, zero])
+    unit = jnp.where(pos[:, None], rel * inv[:, None], fallback)
+    n_tip_in = unit[2]
+    nj, nk = unit[3], jnp.where(pos[4], unit[4], n_tip_in)
+    ej, ek = dist[3], dist[4]
 
-    # flank: convex arc about F from J (counter-clockwise) to K.
-    vf = q - f
-    n_flank_in = safe_normalize(vf, -u)
-    g_flank = safe_norm(vf) - re
-    flank_interior = (cross2(jn - f, vf) >= 0) & (cross2(vf, kc - f) >= 0)
+    # ---- per-arc signed value (positive in the gap) and its gradient --------------
+    # seat: concave arc about c (value ri − |q − c|, gradient toward c); flank: convex arc
+    # about F from J (counter-clockwise) to K; tip: arc of the tip circle from K to the
+    # centre line. Interior of each: the point's projection lies on the arc.
+    arc_sign = jnp.array([-1.0, 1.0, 1.0], dtype=q.dtype)
+    g_arc = arc_sign * dist[:3] + jnp.stack([ri, -re, -ra])
+    n_arc = arc_sign[:, None] * unit[:3]
+    crosses = cross2(jnp.stack([u, jn - f, f - kc, kc]), jnp.stack([rel[0], rel[1], rel[1], q]))
+    side = crosses >= 0
+    interior = jnp.stack([side[0], side[1] & side[2], side[3]])
 
-    # tip: arc of the tip circle from K to the centre line.
-    n_tip_in = safe_normalize(q, jnp.array([1.0, 0.0], dtype=q.dtype))
-    g_tip = safe_norm(q) - ra
-    tip_interior = cross2(kc, q) >= 0
-
-    # end points J and K (the only end points a folded point can be nearest to)
-    dj, dk = q - jn, q - kc
-    nj = safe_normalize(dj, -u)
-    nk = safe_normalize(dk, n_tip_in)
-    ej, ek = safe_norm(dj), safe_norm(dk)
-
-    def oriented(gv, nv):  # s·|g| with the matching gradient
-        same = gv * s >= 0
-        return jnp.where(same, gv, -gv), jnp.where(same, nv, -nv)
-
-    v_seat, n_seat = oriented(g_seat, n_seat_in)
-    v_flank, n_flank = oriented(g_flank, n_flank_in)
-    v_tip, n_tip = oriented(g_tip, n_tip_in)
-
-    v_seat = jnp.where(seat_interior, v_seat, s * ej)
-    n_seat = jnp.where(seat_interior, n_seat, s * nj)
+    # oriented: s·|g| with the matching gradient
+    same = g_arc * s >= 0
+    v_arc = jnp.where(same, g_arc, -g_arc)
+    n_arc = jnp.where(same[:, None], n_arc, -n_arc)
+    # outside its arc, each is the distance to its nearer end point (J and K are the only
+    # end points a folded point can be nearest to)
     flank_end_j = ej <= ek
-    v_flank = jnp.where(flank_interior, v_flank, s * jnp.where(flank_end_j, ej, ek))
-    n_flank = jnp.where(flank_interior, n_flank, s * jnp.where(flank_end_j, nj, nk))
-    v_tip = jnp.where(tip_interior, v_tip, s * ek)
-    n_tip = jnp.where(tip_interior, n_tip, s * nk)
+    v_end = s * jnp.stack([ej, jnp.where(flank_end_j, ej, ek), ek])
+    n_end = s * jnp.stack([nj, jnp.where(flank_end_j, nj, nk), nk])
+    vals = jnp.where(interior, v_arc, v_end)
+    norms = jnp.where(interior[:, None], n_arc, n_end)
 
-    vals = jnp.stack([v_seat, v_flank, v_tip])
-    norms = jnp.stack([n_seat, n_flank, n_tip])
-    i = jnp.argmin(jnp.abs(jax.lax.stop_gradient(vals)))
-    sd = vals[i]
-    n_local = norms[i] * jnp.stack([1.0, flip])
+    # the nearest of the three; a one-hot select (its transpose is a select, not a scatter)
+    pick = jnp.arange(3) == jnp.argmin(jnp.abs(jax.lax.stop_gradient(vals)))
+    sd = jnp.sum(jnp.where(pick, vals, 0.0))
+    n_local = jnp.sum(jnp.where(pick[:, None], norms, 0.0), 0) * jnp.stack([1.0, flip])
     return sd, rot @ n_local
 
 
