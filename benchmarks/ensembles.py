@@ -303,12 +303,9 @@ def sharding(n, t1, kw, repeats, spread):
 # ------------------------------------------------------------------------- (d) gradient
 def gradient_study(n, t1, dt, repeats, default_adjoint=True):
     """d(mean peak over members)/d(seating radius) through ``simulate_ensemble`` (called
-    inside ``jax.value_and_grad``: one vmapped batch), fixed steps, with ``simulate``'s
-    default adjoint and with every step checkpointed given explicitly (no recomputation;
-    memory ~ steps × state). Since ``simulate`` checkpoints every step of a fixed-step
-    solve that fits in ``CHECKPOINT_MEMORY`` by default, the two are the same
-    configuration here (two measurements of it); before, the default was diffrax's
-    ~√(2n) checkpoints (some steps recomputed): 4.2–4.9× in the same setting."""
+    inside ``jax.value_and_grad``: one vmapped batch), fixed steps, with diffrax's
+    default recursive checkpointing (~√(2n) checkpoints, some steps recomputed) and with
+    every step checkpointed (no recomputation; memory ~ steps × state)."""
     scs = members(spread_speeds(n, 0.1))
     stacked = jc.scenes.stack(scs)
     steps = int(math.ceil(t1 / dt))
