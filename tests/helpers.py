@@ -24,16 +24,21 @@ def tree_allclose(a, b, rtol=1e-7, atol=0.0):
     )
 
 
+def count_calls(monkeypatch, module, name):
+    """A list that grows by one each time ``module.name`` is called (traced, when jitted)."""
+    calls = []
+    real = getattr(module, name)
+
+    def counting(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, counting)
+    return calls
+
+
 def count_vector_field_calls(monkeypatch):
     """A list that grows by one each time ``simulate`` traces (calls) the vector field."""
     import jaxchain._simulate as S
 
-    calls = []
-    real = S.vector_field
-
-    def counting(t, y, args):
-        calls.append(1)
-        return real(t, y, args)
-
-    monkeypatch.setattr(S, "vector_field", counting)
-    return calls
+    return count_calls(monkeypatch, S, "vector_field")

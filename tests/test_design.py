@@ -11,6 +11,8 @@ import pytest
 import jaxchain as jc
 from jaxchain.design import DesignSpace, ProfileObjective, soft_peak_force, window_weight
 
+from helpers import count_calls
+
 CHAIN = jc.ChainSpec.iso606("08B")
 Z, RPM = 18, 1000.0
 PERIOD = 60.0 / (Z * RPM)
@@ -251,14 +253,7 @@ def test_no_nan_gradients_at_the_corners_of_the_box(short_objective):
 def test_second_call_does_not_retrace(short_objective, monkeypatch):
     import jaxchain._design as D
 
-    calls = []
-    real = D.forces
-
-    def counting(t, y, scene):
-        calls.append(1)
-        return real(t, y, scene)
-
-    monkeypatch.setattr(D, "forces", counting)
+    calls = count_calls(monkeypatch, D, "forces")
     short_objective.value_and_grad(jnp.array([0.1, 0.1, 0.1, 0.1]))
     n = len(calls)
     short_objective.value_and_grad(jnp.array([0.4, -0.2, 0.1, 0.3]))  # new profile, new scenes
