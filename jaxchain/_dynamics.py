@@ -54,9 +54,10 @@ def _rot(phi):
     return jnp.cos(phi), jnp.sin(phi)
 
 
-def _points(q, v, body, offset):
-    """World position and velocity of body-fixed points."""
-    c, s = _rot(q[body, 2])
+def _points(q, v, body, offset, cs=None):
+    """World position and velocity of body-fixed points; ``cs``: (cos, sin) of every
+    body's angle when the caller has them (trig once per body, not once per point)."""
+    c, s = _rot(q[body, 2]) if cs is None else (cs[0][body], cs[1][body])
     arm = jnp.stack([c * offset[:, 0] - s * offset[:, 1], s * offset[:, 0] + c * offset[:, 1]], -1)
     w = v[body, 2:3]
     x = q[body, :2] + arm
@@ -90,14 +91,14 @@ def _contact_slots(scene: Scene, n_rollers: int) -> int | None:
     return max(slots)
 
 
-def roller_contacts(y: DriveState, scene: Scene) -> RollerContacts:
+def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     """Rollers against every sprocket (each roller sees its nearest gap: O(1) per pair);
     all the chain's elements but these are skipped (what the per-step peak record needs).
 
     One vmapped evaluation over the sprockets (their tooth shapes stacked): the contact
     appears once in the traced program, so its size and the gradient's compile time do
     not grow with the number of sprockets."""
-    xr, vr, arm_r = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+    xr, vr, arm_r = _points(y.q, y.v, scene.roller_body, scene.roller_offset, cs)
     r = scene.roller_radius
     n_r = xr.shape[0]
     slots = _contact_slots(scene, n_r)
@@ -149,9 +150,10 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
     q, v = y.q, y.v
     total = jnp.zeros((n, 3), q.dtype)
     tensions = []
+    cs = _rot(q[:, 2])
     for grp in scene.pairs:
-        xa, va, arm_a = _points(q, v, grp.a, grp.ra)
-        xb, vb, arm_b = _points(q, v, grp.b, grp.rb)
+        xa, va, arm_a = _points(q, v, grp.a, grp.ra, cs)
+        xb, vb, arm_b = _points(q, v, grp.b, grp.rb, cs)
         d = xb - xa
         length = safe_norm(d)
         u = safe_normalize(d, jnp.array([1.0, 0.0], dtype=q.dtype))
@@ -174,7 +176,7 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         f = f + an.stiffness[:, None] * perp + an.damping[:, None] * relv
         total = total.at[an.body, :2].add(f)
 
-    rc = roller_contacts(y, scene)
+    rc = roller_contacts(y, scene, cs)
     total = total + _scatter(n, scene.roller_body, rc.arm, rc.force)
     total = total.at[:, :2].add(scene.mass[:, None] * scene.gravity)
     return Forces(

@@ -29,9 +29,11 @@ _S_C = 4.0 * math.exp(-2.5)
 _Y_C = _S_C * (math.log(4.0 / _S_C) - 1.0)
 _GP_C = math.log(4.0 / _S_C) - 2.0
 _LN4 = math.log(4.0)
-# Newton from the one-fixed-point-step start: relative residual 4e-13 after 4 iterations
-# and round-off (7e-15) after 5 over y in [1e-14, y_c] (checked on 2e5 points)
-_NEWTON_ITERATIONS = 5
+# Halley's iteration (cubic) from the one-fixed-point-step start: relative error 7e-6
+# after 2 iterations and round-off (7e-15, as Newton's after 5) after 3 over y in
+# [1e-14, y_c] (checked on 2.1e5 points). Each iteration costs one log, the bulk of the
+# law's cost: 3 instead of Newton's 5 (vector field of the engagement ~8 % cheaper).
+_ITERATIONS = 3
 
 
 def _g(s):
@@ -40,14 +42,17 @@ def _g(s):
 
 @jax.custom_jvp
 def _johnson_s(y):
-    """Root s of g(s) = y for y in (0, y_c]; Newton in u = ln s (h(u) concave increasing)."""
+    """Root s of g(s) = y for y in (0, y_c]: Halley in u = ln s, on
+    h(u) = u + ln(ln 4 − 1 − u) − ln y (concave, increasing: h' = 1 − 1/w, h'' = −1/w²
+    with w = ln 4 − 1 − u)."""
     ys = jnp.clip(y, 1e-300, _Y_C)
     ly = jnp.log(ys)
     u = jnp.minimum(ly - jnp.log(jnp.log(4.0 / ys) - 1.0), math.log(_S_C))
-    for _ in range(_NEWTON_ITERATIONS):
+    for _ in range(_ITERATIONS):
         w = _LN4 - 1.0 - u
         h = u + jnp.log(w) - ly
-        u = jnp.minimum(u - h / (1.0 - 1.0 / w), math.log(_S_C))
+        d1 = 1.0 - 1.0 / w
+        u = jnp.minimum(u - 2.0 * h * d1 / (2.0 * d1 * d1 + h / (w * w)), math.log(_S_C))
     return jnp.where(y > 0, jnp.exp(u), 0.0)
 
 
@@ -75,7 +80,7 @@ class JohnsonCylinder(AbstractContactLaw):
 
         δ = F/(πLE*)·[ln(4πLE*ΔR/F) − 1],
 
-    solved for F by Newton's method with an implicit-function derivative (exact
+    solved for F by Halley's method with an implicit-function derivative (exact
     gradients, no unrolled-iteration noise). Valid while δ ≲ 0.49ΔR; beyond, the force is
     continued linearly with the slope there (C¹). Unlike Hertz δ^1.5 with
     R* = R(R+ΔR)/ΔR, its stiffness does not blow up as ΔR → 0.

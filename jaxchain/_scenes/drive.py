@@ -31,10 +31,13 @@ def disc_inertia(chain: ChainSpec, profile: ToothProfile, density: float = 7850.
 
 def _slots(wrap: int, n_rollers: int) -> int | None:
     """Contact slots of a sprocket wrapped by ``wrap`` rollers: the wrap, the two span
-    rollers on each side within the reach circle, and a margin; None (check all) when that
-    is no saving."""
+    rollers on each side within the reach circle, and a margin; None (check all) unless
+    that skips at least half the rollers. Picking the nearest rollers (a sort, a gather,
+    a scatter) costs about what evaluating the rest would: measured, simulate 14 % faster
+    with all 20 rollers checked than with 15 slots (engagement, 08B z18), 23 % slower
+    with all 40 than with 16 slots (the 40-link (9, 18) drive)."""
     slots = int(wrap) + 6
-    return None if slots >= n_rollers else slots
+    return None if 2 * slots > n_rollers else slots
 
 
 def _check_positive(name, value, unit):
