@@ -48,7 +48,6 @@ direction changes) of the metric and of the objective.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
@@ -64,6 +63,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import OUT, parse, parser  # noqa: E402
 from benchmarks.work_precision import loadavg, machine_info  # noqa: E402
 from optimize.problem import (  # noqa: E402
     Problem,
@@ -75,7 +75,6 @@ from optimize.problem import (  # noqa: E402
 )
 from optimize.run import _jsonable, failures, save_figure, write_atomic  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 ADAM = OUT / "optimize_default" / "results.json"
 SOBOL_SEED = 20240606
 EDGE_BAND = 0.01  # a peak this close (fraction of the window) to its start or end is clipped
@@ -454,15 +453,10 @@ def analyse(problem: Problem, rows: list[dict], hz: dict, p: dict) -> dict:
 
 # ----------------------------------------------------------------------------- run
 def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
+    ap = parser(__doc__)
     ap.add_argument("--adam-results", type=Path, default=ADAM,
                     help="main-job results.json whose optimum is re-measured too")  # fmt: skip
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    args = parse(ap, argv)
     path = args.out / "design_space.json"
     start = time.perf_counter()
     p = plan(args.quick)

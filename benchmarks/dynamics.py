@@ -21,11 +21,9 @@ Measured per case:
 
 from __future__ import annotations
 
-import argparse
 import json
 import platform
 import time
-from pathlib import Path
 
 import jax
 
@@ -35,9 +33,9 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from jaxchain._dynamics import initial_state, vector_field  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
 
 
@@ -198,13 +196,8 @@ def clearance_drive_speed(t_frac, n_links, settings):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    ap = parser(__doc__)
+    args = parse(ap, argv)
     quick = args.quick
     rev = 60 / 1000
     results = {

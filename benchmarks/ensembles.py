@@ -48,9 +48,9 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from benchmarks.work_precision import loadavg  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 Z = 18
 RPM = 1000.0
 PERIOD = 60.0 / RPM / Z  # tooth period [s]
@@ -463,16 +463,11 @@ def compile_study(fidelities, links):
 
 # ------------------------------------------------------------------------- main
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
+    ap = parser(__doc__)
     ap.add_argument("--sharding-worker", type=Path, help=argparse.SUPPRESS)
-    args = ap.parse_args(argv)
+    args = parse(ap, argv)
     if args.sharding_worker:
         return sharding_worker(args.sharding_worker)
-    args.out.mkdir(parents=True, exist_ok=True)
     quick = args.quick
     t_start = time.perf_counter()
     results = {

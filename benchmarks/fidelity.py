@@ -27,11 +27,9 @@ the statics' time.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
-from pathlib import Path
 
 import jax
 
@@ -40,9 +38,9 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from benchmarks.work_precision import loadavg, machine_info, tooth_period  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)
 SAVE_DT = 1e-6
@@ -193,13 +191,8 @@ def chart(results, path):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    ap = parser(__doc__)
+    args = parse(ap, argv)
     p = (
         dict(periods=2, speed_offsets=(0.0, 1e-3), repeats=1)
         if args.quick

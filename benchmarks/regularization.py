@@ -68,11 +68,9 @@ on the nominal member (full run).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
-from pathlib import Path
 
 import jax
 
@@ -84,6 +82,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from benchmarks.work_precision import (  # noqa: E402
     loadavg,
     machine_info,
@@ -92,7 +91,6 @@ from benchmarks.work_precision import (  # noqa: E402
 )
 from jaxchain._scene import ClearanceJoints  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)
 LAW_FIELDS = ("width", "speed_floor", "clamp_width")
@@ -583,13 +581,8 @@ def plan(quick):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    ap = parser(__doc__)
+    args = parse(ap, argv)
     p = plan(args.quick)
     start = time.perf_counter()
     results = {"machine": machine_info(), "quick": args.quick, "plan": p}

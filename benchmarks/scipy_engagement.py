@@ -34,11 +34,9 @@ the field 128 times per Jacobian).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
-from pathlib import Path
 
 import jax
 
@@ -48,6 +46,7 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from benchmarks.work_precision import (  # noqa: E402
     ATOL_PER_RTOL,
     SOLVERS,
@@ -64,8 +63,6 @@ from benchmarks.work_precision import (  # noqa: E402
 from jaxchain._contact.johnson import JohnsonCylinder  # noqa: E402
 from jaxchain._dynamics import initial_state  # noqa: E402
 from jaxchain._scene import ClearanceJoints, LinkSprings  # noqa: E402
-
-OUT = Path(__file__).parent / "results"
 
 # Johnson's law constants, in the same closed forms as jaxchain/_contact/johnson.py
 _S_C = 4.0 * math.exp(-2.5)
@@ -645,13 +642,8 @@ def matched(jax_rows, sp_rows, level, err_key, label) -> dict:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="smaller sweep, < 5 min")
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    ap = parser(__doc__, "smaller sweep, < 5 min")
+    args = parse(ap, argv)
     quick = args.quick
     start = time.perf_counter()
     rt = lambda *e: [10.0**-k for k in e]  # noqa: E731

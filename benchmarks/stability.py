@@ -45,14 +45,12 @@ differences.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
 import platform
 import time
 import warnings
-from pathlib import Path
 
 import jax
 
@@ -66,10 +64,10 @@ import optimistix as optx  # noqa: E402
 from jax.flatten_util import ravel_pytree  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from jaxchain._dynamics import initial_state  # noqa: E402
 from jaxchain._scene import LinkSprings  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 GROWTH = 1e8  # amplification over the horizon counted as divergence (see module doc)
 BLOWUP = 10.0  # a "successful" solve whose peak force exceeds 10× the reference blew up
 LOWEST = 6  # the map's grid reaches down to 2^(-LOWEST/2) × the predicted bound
@@ -559,16 +557,11 @@ def gradient_study(scene, horizons, dt, fd_check):
 
 # ------------------------------------------------------------------------- main
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
+    ap = parser(__doc__)
     ap.add_argument(
         "--gradient", action="store_true", help="with --quick: also the gradient study (1, 2)"
     )
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    args = parse(ap, argv)
     quick = args.quick
     t_start = time.perf_counter()
     if quick:

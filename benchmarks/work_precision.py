@@ -35,13 +35,11 @@ skipped once one run exceeds a time budget (recorded as ``skipped``).
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
 import platform
 import time
-from pathlib import Path
 
 import jax
 
@@ -54,10 +52,10 @@ import numpy as np  # noqa: E402
 import optimistix as optx  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks._cli import parse, parser  # noqa: E402
 from jaxchain._dynamics import initial_state, vector_field  # noqa: E402
 from jaxchain._simulate import _peak_fn  # noqa: E402
 
-OUT = Path(__file__).parent / "results"
 RPM = 1000.0
 ATOL_PER_RTOL = 1e-3  # atol = 1e-3·rtol: positions ~5e-2 m, speeds ~1 m/s
 REF_RTOL = 1e-11
@@ -497,13 +495,8 @@ def run_scene(label, scene, t1, solvers, *, ref_rtol, repeats, budget, quick, ma
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--quick", action="store_true", help="small, fast smoke run")
-    ap.add_argument("--out", type=Path, default=OUT)
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    ap = parser(__doc__)
+    args = parse(ap, argv)
     p = plan(args.quick)
     start = time.perf_counter()
     results = {"machine": machine_info(), "quick": args.quick, "atol_per_rtol": ATOL_PER_RTOL}

@@ -426,3 +426,21 @@ def test_nearest_gap_index():
         for da in (-0.49, 0.0, 0.49):
             x = polar(float(p.pitch_radius), 2 * math.pi * (k + da) / z)
             assert int(jc.nearest_gap(p, x)) == k
+
+
+def test_gap_rotation_matches_cos_sin_for_every_gap_of_every_tooth_count():
+    """The gap rotation is built from per-profile factors (no trig per point): it must
+    still be the rotation by 2πk/z, to round-off, for every k of every allowed z."""
+    from jaxchain._gap import _gap_rotation
+    from jaxchain._profile import MAX_TEETH, MIN_TEETH
+
+    z = np.arange(MIN_TEETH, MAX_TEETH + 1)[:, None]
+    k = np.arange(MAX_TEETH)[None, :]
+    zz, kk = np.broadcast_arrays(z, k)
+    rot = jax.jit(jax.vmap(lambda k, z: _gap_rotation(k, z, jnp.float64)))(
+        jnp.asarray(kk.ravel(), jnp.int32), jnp.asarray(zz.ravel(), jnp.float64)
+    )
+    a = 2 * np.pi * kk.ravel() / zz.ravel()
+    want = np.stack([np.cos(a), -np.sin(a), np.sin(a), np.cos(a)], -1).reshape(-1, 2, 2)
+    valid = (kk < zz).ravel()  # gap indices are in [0, z)
+    assert np.max(np.abs(np.asarray(rot) - want)[valid]) < 3e-15

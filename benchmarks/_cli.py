@@ -1,0 +1,31 @@
+"""The command line every study shares: ``--quick`` (a short run) and ``--out``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+OUT = Path(__file__).parent / "results"
+
+
+def parser(doc: str | None, quick_help: str = "small, fast smoke run") -> argparse.ArgumentParser:
+    """A parser with the study's docstring as its help, ``--quick`` and ``--out``; add the
+    study's own options to it."""
+    ap = argparse.ArgumentParser(
+        description=doc, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--quick", action="store_true", help=quick_help)
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=OUT,
+        help="folder for the JSON and the chart (default: %(default)s)",
+    )
+    return ap
+
+
+def parse(ap: argparse.ArgumentParser, argv=None) -> argparse.Namespace:
+    """Parse, and create the output folder."""
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    return args
