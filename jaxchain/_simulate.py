@@ -83,8 +83,9 @@ class Solution(eqx.Module):
         ts: (T,) save times [s].
         roller_position, roller_velocity: (T, R, 2) world frame [m], [m/s].
         roller_sprocket_force: (T, R) roller/tooth normal force, summed over sprockets [N].
-        peak_contact_force: max of the roller/tooth force over the save times *and* every
-            accepted solver step [N].
+        peak_contact_force: max of the roller/tooth force over the save times, the start,
+            and every accepted solver step's end and midpoint [N] (see
+            :class:`PeakRecorder`).
         link_tension: (T, L) [N] (pin/bush joint forces averaged per link, or link springs).
         sprocket_speed, sprocket_angle: (T, S) [rad/s], [rad].
         sprocket_torque: (T, S) torque of the chain on each sprocket [N·m].
@@ -119,6 +120,69 @@ def _peak_fn(t, y, scene):
     return jnp.max(jnp.sum(roller_contacts(y, scene).normal, axis=0))
 
 
+class PeakRecorder(diffrax.AbstractWrappedSolver):
+    """Wraps any diffrax solver; also keeps the largest roller/tooth force seen at the
+    start, at every accepted step's end *and midpoint* (the state there from the solver's
+    own dense interpolant), as a running max in the solver state.
+
+    Sampling only the step ends misses the top of a short impact by up to the step's
+    share of it: on the engagement the default Tsit5 at rtol 1e-6 reported a peak 0.72 %
+    low while its states were right to 1e-10 m; with the midpoints 0.014 %. Cost: one
+    roller-contact evaluation more per step (the two are one vmapped call). The running
+    max needs no per-step buffer; a rejected step leaves it untouched (diffrax keeps the
+    solver state of accepted steps only).
+    """
+
+    solver: diffrax.AbstractSolver
+
+    @property
+    def term_structure(self):
+        return self.solver.term_structure
+
+    @property
+    def interpolation_cls(self):  # pyright: ignore
+        return self.solver.interpolation_cls
+
+    @property
+    def term_compatible_contr_kwargs(self):
+        return self.solver.term_compatible_contr_kwargs
+
+    @property
+    def root_finder(self):  # diffrax sets an implicit solver's tolerances through this
+        return self.solver.root_finder
+
+    @property
+    def scan_kind(self):  # ... and a Runge–Kutta solver's stage loop for forward mode
+        return self.solver.scan_kind
+
+    def order(self, terms):
+        return self.solver.order(terms)
+
+    def strong_order(self, terms):
+        return self.solver.strong_order(terms)
+
+    def error_order(self, terms):
+        return self.solver.error_order(terms)
+
+    def init(self, terms, t0, t1, y0, args):
+        return self.solver.init(terms, t0, t1, y0, args), _peak_fn(t0, y0, args)
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        inner, peak = solver_state
+        y1, y_error, dense_info, inner, result = self.solver.step(
+            terms, t0, t1, y0, args, inner, made_jump
+        )
+        tm = t0 + 0.5 * (t1 - t0)
+        ym = self.solver.interpolation_cls(t0=t0, t1=t1, **dense_info).evaluate(tm)
+        both = jax.tree_util.tree_map(lambda a, b: jnp.stack([a, b]), ym, y1)
+        forces = jax.vmap(_peak_fn, in_axes=(0, 0, None))(jnp.stack([tm, t1]), both, args)
+        # NaN propagates (maximum): a blown-up step is reported, never skipped
+        return y1, y_error, dense_info, (inner, jnp.maximum(peak, jnp.max(forces))), result
+
+    def func(self, terms, t0, y0, args):
+        return self.solver.func(terms, t0, y0, args)
+
+
 @eqx.filter_jit
 def _solve(scene, t0, t1, ts, solver, controller, dt0, max_steps, adjoint, progress_meter):
     y0 = initial_state(scene)
@@ -126,15 +190,11 @@ def _solve(scene, t0, t1, ts, solver, controller, dt0, max_steps, adjoint, progr
     # computed from them after the solve, vmapped: inside the loop they would be traced,
     # linearized and transposed once more in every gradient (compile time)
     saveat = diffrax.SaveAt(
-        subs=[
-            diffrax.SubSaveAt(ts=ts),
-            diffrax.SubSaveAt(steps=True, fn=_peak_fn),
-            diffrax.SubSaveAt(t1=True),
-        ]
+        subs=[diffrax.SubSaveAt(ts=ts), diffrax.SubSaveAt(t1=True)], solver_state=True
     )
     sol = diffrax.diffeqsolve(
         diffrax.ODETerm(vector_field),
-        solver,
+        PeakRecorder(solver),
         t0,
         t1,
         dt0,
@@ -147,13 +207,9 @@ def _solve(scene, t0, t1, ts, solver, controller, dt0, max_steps, adjoint, progr
         progress_meter=progress_meter,
         throw=False,
     )
-    ys, step_peaks, y1 = sol.ys
+    ys, y1 = sol.ys
     saved = jax.vmap(outputs, in_axes=(0, 0, None))(ts, ys, scene)
-    # steps=True fills one entry per accepted step and pads the rest of the buffer
-    valid = jnp.arange(step_peaks.shape[0]) < sol.stats["num_accepted_steps"]
-    step_peak = jnp.max(
-        jnp.where(valid, jnp.where(jnp.isnan(step_peaks), jnp.inf, step_peaks), -jnp.inf)
-    )
+    step_peak = sol.solver_state[1]
     peak = jnp.maximum(jnp.max(saved["roller_sprocket_force"]), step_peak)
     finite = jnp.all(
         jnp.stack([jnp.all(jnp.isfinite(leaf)) for leaf in jax.tree_util.tree_leaves(saved)])
@@ -210,7 +266,7 @@ def simulate(
             error in the max norm (a single contact's error is not averaged away).
         dt0: initial step; with ``stepsize_controller=diffrax.ConstantStepSize()`` the
             fixed step.
-        max_steps: step budget (also the size of the per-step peak-force buffer).
+        max_steps: step budget.
         ts: save times (default: ``n_save`` equally spaced over [t0, t1]).
         stepsize_controller: overrides the default controller.
         adjoint: diffrax adjoint for gradients (default: recursive checkpointing with
