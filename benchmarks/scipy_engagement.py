@@ -25,10 +25,10 @@ sampling. The peak error of either side at ≲ 0.1 % depends on where the steps 
 impact: a round-off-level change of the initial state moved LSODA's time at 0.1 % from
 6.65 s to 3.78 s between two runs (rtol 1e-3: 0.95 % → 0.053 % error); read both peak
 levels and both position levels together. Each method's wall time at a given error is
-read off its error–time curve
-(log–log interpolation of the *reliable* error: the largest error of that run and of
-every more expensive one), so methods are compared at the same error, never at the same
-nominal tolerance (SciPy measures the error in an RMS norm, jaxchain in the max norm).
+read off its error–time curve (log–log interpolation of the *reliable* error: the
+largest error of that run and of every more expensive one), so methods are compared at
+the same error, never at the same nominal tolerance (SciPy measures the error in an RMS
+norm, jaxchain in the max norm).
 Wall times are the minimum over repeats, by one rule on both sides: at least 3 (SciPy: 2
 or 1 for runs over a quarter or half of the budget) and more until the repeats add up to
 ``MIN_TIME_S`` (2 s; at most 15). SciPy's runs take ≥ 2.8 s, so 3 as before; jaxchain's
@@ -64,6 +64,7 @@ from benchmarks.work_precision import (  # noqa: E402
     engagement_scene,
     loadavg,
     machine_info,
+    more_repeats,
     reference,
     sweep,
     timed,
@@ -530,8 +531,7 @@ def scipy_sweep(field, y0, t1, ref, method, rtols, *, budget_s, max_repeats=3) -
             sol, peak = scipy_solve(field, y0, t1, method, rtol)
             walls.append(time.perf_counter() - t)
             cap = 3 if walls[0] < budget_s / 4 else (2 if walls[0] < budget_s / 2 else 1)
-            enough = sum(walls) >= MIN_TIME_S or len(walls) >= 15  # the rule of both sides
-            if len(walls) >= min(cap, max_repeats) and enough:
+            if not more_repeats(walls, min(cap, max_repeats), MIN_TIME_S):
                 break
         ok = bool(sol.success) and bool(np.isfinite(peak))
         row.update(

@@ -180,16 +180,27 @@ def solve(scene, t1, name, *, rtol=None, dt=None, max_steps=200_000):
     )
 
 
-def timed(call, repeats: int, *, min_time_s: float = 0.0, max_repeats: int = 15):
+MAX_REPEATS = 15  # timing runs at most (see more_repeats)
+
+
+def more_repeats(walls, at_least: int, min_time_s: float, max_repeats: int = MAX_REPEATS) -> bool:
+    """Whether a timing needs another run: fewer than ``at_least`` so far, or less than
+    ``min_time_s`` timed in fewer than ``max_repeats`` runs — a short run's minimum needs
+    more samples to get past the bursts of a shared machine. (One rule for every side of
+    a comparison: :func:`timed` and the SciPy study's loop.)"""
+    return len(walls) < at_least or (sum(walls) < min_time_s and len(walls) < max_repeats)
+
+
+def timed(call, repeats: int, *, min_time_s: float = 0.0, max_repeats: int = MAX_REPEATS):
     """(result of the last call, first-call time, min and all warm times): ``repeats``
-    warm calls, more (up to ``max_repeats``) until they add up to ``min_time_s`` — a short
-    run's minimum needs more samples to get past the bursts of a shared machine."""
+    warm calls, more (up to ``max_repeats``) until they add up to ``min_time_s`` (see
+    :func:`more_repeats`)."""
     t = time.perf_counter()
     out = call()
     jax.block_until_ready(out["peak"])
     first = time.perf_counter() - t
     walls = []
-    while len(walls) < repeats or (sum(walls) < min_time_s and len(walls) < max_repeats):
+    while more_repeats(walls, repeats, min_time_s, max_repeats):
         t = time.perf_counter()
         out = call()
         jax.block_until_ready(out["peak"])
@@ -221,11 +232,10 @@ def dense_peak(scene, t1, rtol, *, n=N_DENSE, max_steps=400_000) -> dict:
     ``Solution.peak_contact_force`` samples the force at the accepted steps' ends and
     midpoints only: at a tight tolerance an 8th-order method takes ~1 µs steps through an
     impact that lasts tens of µs, and that sampling alone is off by up to ~1e-3. Here
-    the force is read from the dense
-    output: pass 1 on ``n`` equally spaced times, pass 2 on ``n`` times packed into
-    windows of ±2 coarse spacings around the largest local maxima of pass 1 (spacing
-    there ~1e-4 of the coarse one). Returns the dense and the step-sampled peaks, the
-    state at t1 and the solve's statistics.
+    the force is read from the dense output: pass 1 on ``n`` equally spaced times, pass
+    2 on ``n`` times packed into windows of ±2 coarse spacings around the largest local
+    maxima of pass 1 (spacing there ~1e-4 of the coarse one). Returns the dense and the
+    step-sampled peaks, the state at t1 and the solve's statistics.
     """
     kw = dict(
         solver=diffrax.Dopri8(),
