@@ -23,6 +23,10 @@ PROFILES = {
 
 contact = jax.jit(jc.gap_contact)
 contact_many = jax.jit(jax.vmap(jc.gap_contact, in_axes=(None, 0)))
+# gradients of the depth in the points and in the profile's parameters, many points at
+# once (jitted: an eager vmap of a grad traces every call anew)
+_point_grads = jax.jit(jax.vmap(jax.grad(lambda q, x: jc.gap_contact(q, x)[0], 1), (None, 0)))
+_param_grads = jax.jit(jax.vmap(jax.grad(lambda q, x: jc.gap_contact(q, x)[0]), (None, 0)))
 
 
 def polar(r, a):
@@ -101,12 +105,12 @@ def test_roller_at_seat_centre_is_finite():
     d, n = contact(p, c)
     np.testing.assert_allclose(float(d), float(p.roller_radius - p.seating_radius), rtol=1e-12)
     np.testing.assert_allclose(float(jnp.linalg.norm(n)), 1.0)
-    g = jax.grad(lambda x: jc.gap_contact(p, x)[0])(c)
-    gp = jax.grad(lambda q: jc.gap_contact(q, c)[0])(p)
+    g = _point_grads(p, c[None])
+    gp = _param_grads(p, c[None])
     assert np.all(np.isfinite(g))
     assert all(np.isfinite(x) for x in jax.tree_util.tree_leaves(gp))
     # in the seat region depth = r − ri + |x − c|: ∂/∂ri = −1
-    np.testing.assert_allclose(float(gp.seating_radius), -1.0, rtol=1e-12)
+    np.testing.assert_allclose(float(gp.seating_radius[0]), -1.0, rtol=1e-12)
 
 
 def test_sprocket_axis_and_far_points_finite():
@@ -114,7 +118,7 @@ def test_sprocket_axis_and_far_points_finite():
     pts = jnp.array([[0.0, 0.0], [1e-9, 0.0], [1.0, 2.0], [-0.05, 0.01], [0.0, -0.02]])
     d, n = contact_many(p, pts)
     assert np.all(np.isfinite(d)) and np.all(np.isfinite(n))
-    g = jax.vmap(jax.grad(lambda x: jc.gap_contact(p, x)[0]))(pts)
+    g = _point_grads(p, pts)
     assert np.all(np.isfinite(g))
     # the axis is deep inside the sprocket: depth = r + (distance to the seat bottom)
     c, _, _, _, _, ri, _, r = params(p)
@@ -281,7 +285,7 @@ def test_parameter_derivatives_by_hand():
     p = PROFILES[("08B", 18, "min")]
     c, j, f, k, ra, ri, re, r = params(p)
     u = (j - c) / ri
-    g = jax.grad(lambda q, x: jc.gap_contact(q, x)[0])
+    g = jax.jit(jax.grad(lambda q, x: jc.gap_contact(q, x)[0]))
     x = c + (ri - r) * np.array([-1.0, 0.2]) / np.hypot(1, 0.2)
     gs = g(p, jnp.asarray(x))
     np.testing.assert_allclose(
@@ -314,10 +318,8 @@ def test_gradient_finite_on_the_boundaries_themselves():
         j,
         k,
     ]
-    gx = jax.vmap(jax.grad(lambda x: jc.gap_contact(p, x)[0]))(jnp.asarray(np.array(pts)))
-    gp = jax.vmap(jax.grad(lambda q, x: jc.gap_contact(q, x)[0]), in_axes=(None, 0))(
-        p, jnp.asarray(np.array(pts))
-    )
+    gx = _point_grads(p, jnp.asarray(np.array(pts)))
+    gp = _param_grads(p, jnp.asarray(np.array(pts)))
     assert np.all(np.isfinite(gx))
     assert all(np.all(np.isfinite(v)) for v in jax.tree_util.tree_leaves(gp))
 
@@ -381,13 +383,10 @@ def test_property_distance_is_exact_and_bounded(p, seed):
     outline = np.concatenate([p.outline(3000, g)[:-1] for g in (-2, -1, 0, 1, 2)])
     brute = _polyline_distance(outline, pts)
     np.testing.assert_allclose(np.abs(r - d), brute, atol=1e-9)
-    g = jax.vmap(jax.grad(lambda x: jc.gap_contact(p, x)[0]))(jnp.asarray(pts))
+    g = _point_grads(p, jnp.asarray(pts))
     assert np.all(np.isfinite(g))
     dm, _ = contact_many(p, jnp.asarray(pts * [1.0, -1.0]))
     np.testing.assert_allclose(dm, d, atol=1e-12)
-
-
-_param_grads = jax.jit(jax.vmap(jax.grad(lambda q, x: jc.gap_contact(q, x)[0]), in_axes=(None, 0)))
 
 
 @given(p=valid_profiles)
