@@ -273,9 +273,10 @@ def simulate(
             diffrax's ≈ √(2·max_steps) checkpoints, which differentiates the discrete solve
             exactly). For a fixed-step gradient whose states fit in memory, checkpoint every
             step, ``diffrax.RecursiveCheckpointAdjoint(checkpoints=n_steps)``: nothing is
-            recomputed (value+gradient 3.6–3.8× the value on the ensemble benchmark, vs
-            4.2–4.9× with the default). Not automatic: the checkpoint count is part of
-            the compiled solve, so it would recompile for every new step size.
+            recomputed (value+gradient 3.6–4.3× the value on the ensemble benchmark, vs
+            4.2–4.9× with the default, over several runs). Not automatic: the checkpoint
+            count is part of the compiled solve, so it would recompile for every new step
+            size.
         progress: show a progress meter (tqdm if installed, else text).
         throw: raise on failure (``RuntimeError`` with what to change); with
             ``throw=False`` check ``Solution.result`` / ``Solution.message``.
