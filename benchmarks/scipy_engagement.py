@@ -514,9 +514,11 @@ def scipy_solve(field: NumpyField, y0, t1, method, rtol):
     return sol, float(np.max(field.roller_force(ts, ys)))
 
 
-def scipy_sweep(field, y0, t1, ref, method, rtols, *, budget_s, max_repeats=3) -> list[dict]:
-    """Rows for one SciPy method, loosest first; min over up to ``max_repeats`` runs (fewer
-    when a run is long: 3 under budget/4, 2 under budget/2, else 1)."""
+def scipy_sweep(field, y0, t1, ref, method, rtols, *, budget_s, repeats=3) -> list[dict]:
+    """Rows for one SciPy method, loosest first; each time the min over at least
+    ``repeats`` runs (fewer when a run is long: 3 under budget/4, 2 under budget/2, else
+    1), more until ``MIN_TIME_S`` of them (the rule of :func:`more_repeats`, as on the
+    jaxchain side)."""
     n = field.n
     rows, over = [], False
     for rtol in rtols:
@@ -531,7 +533,7 @@ def scipy_sweep(field, y0, t1, ref, method, rtols, *, budget_s, max_repeats=3) -
             sol, peak = scipy_solve(field, y0, t1, method, rtol)
             walls.append(time.perf_counter() - t)
             cap = 3 if walls[0] < budget_s / 4 else (2 if walls[0] < budget_s / 2 else 1)
-            if not more_repeats(walls, min(cap, max_repeats), MIN_TIME_S):
+            if not more_repeats(walls, min(cap, repeats), MIN_TIME_S):
                 break
         ok = bool(sol.success) and bool(np.isfinite(peak))
         row.update(
