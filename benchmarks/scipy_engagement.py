@@ -15,9 +15,10 @@ against jaxchain's field to 1e-9.
 Both sides solve the same scene over the same horizon (2 tooth periods, 1.25 with
 ``--quick``: both contain the first meshing impact, the largest force). The headline error
 measure is the same on both sides: the relative error of the peak roller/tooth force,
-that force sampled at every accepted step's end and midpoint (what
-:attr:`jaxchain.Solution.peak_contact_force` reports; for SciPy the force is evaluated at
-``sol.t`` and, from its dense output, at the step midpoints, inside the timed region), against
+each accepted step's top read the same way (what :attr:`jaxchain.Solution.peak_contact_force`
+reports: per roller, samples at quarter steps on the dense output, the largest top of the
+parabolas through consecutive triples; for SciPy the force is evaluated at ``sol.t`` and,
+from its dense output, at the quarter steps, inside the timed region), against
 the continuous peak of a Dopri8 reference at rtol 1e-11 (1e-10 with ``--quick``; see
 :func:`benchmarks.work_precision.dense_peak`; shown converged against 10× looser). Beside
 it, the max abs error of the roller positions at t1, which is free of the peak's
@@ -72,7 +73,9 @@ from benchmarks.work_precision import (  # noqa: E402
 )
 from jaxchain._contact.johnson import JohnsonCylinder  # noqa: E402
 from jaxchain._dynamics import initial_state  # noqa: E402
+from jaxchain._numerics import parabola_max  # noqa: E402
 from jaxchain._scene import ClearanceJoints, LinkSprings  # noqa: E402
+from jaxchain._simulate import PEAK_SAMPLES  # noqa: E402
 
 MIN_TIME_S = 2.0  # repeat a timing until this much has been timed (at least 3, at most 15)
 
@@ -492,9 +495,10 @@ SCIPY_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
 
 
 def scipy_solve(field: NumpyField, y0, t1, method, rtol):
-    """One ``solve_ivp`` run and its peak force at every accepted step's end and midpoint
-    (the midpoint states from SciPy's dense output), as ``jc.simulate`` records it; all
-    timed."""
+    """One ``solve_ivp`` run and its peak force read from every accepted step as
+    ``jc.simulate`` reads it (:class:`jaxchain._simulate.PeakRecorder`: per roller, samples
+    at the step's start, ``PEAK_SAMPLES - 1`` interior times from SciPy's dense output and
+    its end; the largest top of the parabolas through consecutive triples); all timed."""
     sol = solve_ivp(
         field.scipy_fun,
         (0.0, t1),
@@ -508,10 +512,14 @@ def scipy_solve(field: NumpyField, y0, t1, method, rtol):
     )
     if not sol.success:
         return sol, math.nan
-    tm = 0.5 * (sol.t[:-1] + sol.t[1:])
-    ts = np.concatenate([sol.t, tm])
-    ys = np.concatenate([sol.y.T, sol.sol(tm).T])
-    return sol, float(np.max(field.roller_force(ts, ys)))
+    k = PEAK_SAMPLES
+    h = np.diff(sol.t)
+    inner = (sol.t[:-1, None] + h[:, None] * np.arange(1, k) / k).ravel()
+    f_ends = field.roller_force(sol.t, sol.y.T)  # (steps + 1, R)
+    f_in = field.roller_force(inner, sol.sol(inner).T).reshape(len(h), k - 1, -1)
+    f = np.concatenate([f_ends[:-1, None], f_in, f_ends[1:, None]], axis=1)  # (steps, k+1, R)
+    tops = parabola_max(f[:, :-2], f[:, 1:-1], f[:, 2:])
+    return sol, float(np.max(tops))
 
 
 def scipy_sweep(field, y0, t1, ref, method, rtols, *, budget_s, repeats=3) -> list[dict]:

@@ -14,6 +14,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
 from ._dynamics import initial_state, outputs, roller_contacts, vector_field
+from ._numerics import parabola_max
 from ._scene import Scene
 
 __all__ = ["simulate", "Solution", "Result"]
@@ -83,9 +84,9 @@ class Solution(eqx.Module):
         ts: (T,) save times [s].
         roller_position, roller_velocity: (T, R, 2) world frame [m], [m/s].
         roller_sprocket_force: (T, R) roller/tooth normal force, summed over sprockets [N].
-        peak_contact_force: max of the roller/tooth force over the save times, the start,
-            and every accepted solver step's end and midpoint [N] (see
-            :class:`PeakRecorder`).
+        peak_contact_force: max of the roller/tooth force over the save times and every
+            accepted solver step, each step's top read from 5 samples on the solver's
+            dense output [N] (see :class:`PeakRecorder`).
         link_tension: (T, L) [N] (pin/bush joint forces averaged per link, or link springs).
         sprocket_speed, sprocket_angle: (T, S) [rad/s], [rad].
         sprocket_torque: (T, S) torque of the chain on each sprocket [N·m].
@@ -116,24 +117,49 @@ class Solution(eqx.Module):
         return Result[self.result]
 
 
-def _peak_fn(t, y, scene):
-    return jnp.max(jnp.sum(roller_contacts(y, scene).normal, axis=0))
+PEAK_SAMPLES = 4  # force samples per accepted step for the peak record (see PeakRecorder)
+
+
+def _roller_forces(t, y, scene):
+    """(R,) each roller's tooth force, summed over sprockets."""
+    return jnp.sum(roller_contacts(y, scene).normal, axis=0)
 
 
 class PeakRecorder(diffrax.AbstractWrappedSolver):
-    """Wraps any diffrax solver; also keeps the largest roller/tooth force seen at the
-    start, at every accepted step's end *and midpoint* (the state there from the solver's
-    own dense interpolant), as a running max in the solver state.
+    """Wraps any diffrax solver; also keeps the largest roller/tooth force of every
+    accepted step, as a running max in the solver state.
 
-    Sampling only the step ends misses the top of a short impact by up to the step's
-    share of it: on the engagement the default Tsit5 at rtol 1e-6 reported a peak 0.72 %
-    low while its states were right to 1e-10 m; with the midpoints 0.014 %. Cost: one
-    roller-contact evaluation more per step (the two are one vmapped call). The running
-    max needs no per-step buffer; a rejected step leaves it untouched (diffrax keeps the
+    Each step's force is sampled per roller at its start, at ``samples - 1`` equally spaced
+    interior times (states from the solver's own dense interpolant) and at its end; the
+    step's top is the largest :func:`parabola_max` over consecutive sample triples (never
+    below a sample, continuous in them). Sampling the step ends alone misses the top of a
+    short impact by up to the step's share of it; on the engagement (2 tooth periods,
+    peak 1593 N) the errors against the converged peak were, per setting
+    (ends+midpoints max → 4 samples with parabolas):
+
+    ====================  ===================  ====================
+    Tsit5 rtol 1e-5       1.8e-3 → 6.9e-5      +10 % time
+    Tsit5 rtol 1e-6       1.4e-4 → 2.1e-5      +25 %
+    Tsit5 rtol 1e-7       6.1e-4 → 1.2e-5      +26 %
+    Dopri8 rtol 1e-6      1.9e-3 → 1.9e-4      +16 %
+    ====================  ===================  ====================
+
+    (the old error moved erratically with where the steps fell; at rtol ≥ 1e-4 the
+    state's own error dominates and sampling changes nothing). Cost: three roller-contact
+    evaluations more per step than the ends alone, in one vmapped call. The running max
+    needs no per-step buffer; a rejected step leaves it untouched (diffrax keeps the
     solver state of accepted steps only).
     """
 
     solver: diffrax.AbstractSolver
+    samples: int = eqx.field(static=True, default=PEAK_SAMPLES)
+
+    def __check_init__(self):
+        if not (isinstance(self.samples, int) and self.samples >= 2):
+            raise ValueError(
+                f"PeakRecorder: samples must be an int >= 2 (a parabola needs a start, an "
+                f"interior and an end sample); got {self.samples!r}"
+            )
 
     @property
     def term_structure(self):
@@ -165,19 +191,24 @@ class PeakRecorder(diffrax.AbstractWrappedSolver):
         return self.solver.error_order(terms)
 
     def init(self, terms, t0, t1, y0, args):
-        return self.solver.init(terms, t0, t1, y0, args), _peak_fn(t0, y0, args)
+        f0 = _roller_forces(t0, y0, args)
+        return self.solver.init(terms, t0, t1, y0, args), jnp.max(f0), f0
 
     def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
-        inner, peak = solver_state
+        inner, peak, f0 = solver_state
         y1, y_error, dense_info, inner, result = self.solver.step(
             terms, t0, t1, y0, args, inner, made_jump
         )
-        tm = t0 + 0.5 * (t1 - t0)
-        ym = self.solver.interpolation_cls(t0=t0, t1=t1, **dense_info).evaluate(tm)
-        both = jax.tree_util.tree_map(lambda a, b: jnp.stack([a, b]), ym, y1)
-        forces = jax.vmap(_peak_fn, in_axes=(0, 0, None))(jnp.stack([tm, t1]), both, args)
+        n = self.samples
+        interp = self.solver.interpolation_cls(t0=t0, t1=t1, **dense_info)
+        ts = t0 + (t1 - t0) * jnp.arange(1, n) / n
+        ys = jax.vmap(interp.evaluate)(ts)
+        ys = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b[None]]), ys, y1)
+        f = jax.vmap(_roller_forces, in_axes=(0, 0, None))(jnp.append(ts, t1), ys, args)
+        f = jnp.concatenate([f0[None], f])  # (n + 1, R) at t0, t0 + h/n, ..., t1
         # NaN propagates (maximum): a blown-up step is reported, never skipped
-        return y1, y_error, dense_info, (inner, jnp.maximum(peak, jnp.max(forces))), result
+        peak = jnp.maximum(peak, jnp.max(parabola_max(f[:-2], f[1:-1], f[2:])))
+        return y1, y_error, dense_info, (inner, peak, f[-1]), result
 
     def func(self, terms, t0, y0, args):
         return self.solver.func(terms, t0, y0, args)
