@@ -231,7 +231,7 @@ def dense_peak(scene, t1, rtol, *, n=N_DENSE, max_steps=400_000) -> dict:
 
     ``Solution.peak_contact_force`` reads each accepted step's top from 5 samples (parabolas
     through consecutive triples): at a tight tolerance an 8th-order method takes ~1 µs
-    steps through an impact that rises in ~5 µs, and that estimate overshoots by ~3e-6
+    steps through an impact that rises in ~5 µs, and that estimate overshoots by 2.2e-6
     (parabolas through a lopsided top; the steps' ends and midpoints alone were up to
     ~1e-3 low). Here
     the force is read from the dense output: pass 1 on ``n`` equally spaced times, pass
@@ -264,7 +264,7 @@ def dense_peak(scene, t1, rtol, *, n=N_DENSE, max_steps=400_000) -> dict:
     step_peak = float(s1.peak_contact_force)
     return {
         # true values of the dense output only: the recorded peak's parabolas may
-        # overshoot (by ~2e-6 at rtol 1e-11's ~1 µs steps)
+        # overshoot (by 2.2e-6 at rtol 1e-11 on the engagement)
         "peak_N": max(float(f2.max()), float(f1.max())),
         "step_sampled_peak_N": step_peak,
         "peak_time_s": float(fine[np.argmax(f2)]),
