@@ -88,7 +88,7 @@ def smooth_ramp(x: ArrayLike, width: ArrayLike) -> Array:
 
 
 def parabola_max(f0: ArrayLike, fm: ArrayLike, f1: ArrayLike) -> Array:
-    """Max over a step of the parabola through its start, midpoint and end samples.
+    """Max of the parabola through three equally spaced samples, over their span.
 
     With ``b = (f1 - f0)/2`` and ``a = (f0 + f1)/2 - fm`` the parabola is
     ``fm + b s + a s²`` on ``s ∈ [-1, 1]``; its top lies inside when ``-2a > |b|`` and is
