@@ -16,6 +16,14 @@ def central_fd(f, x, h):
     return g
 
 
+def brute_parabola_max(f0, fm, f1, n=2001):
+    """Max of the parabola through samples (f0, fm, f1) at s = −1, 0, 1 over s ∈ [−1, 1], by
+    brute force on an ``n``-point grid; elementwise over arrays of any (equal) shape."""
+    f0, fm, f1 = (np.asarray(x, dtype=float) for x in (f0, fm, f1))
+    s = np.linspace(-1.0, 1.0, n).reshape((n,) + (1,) * fm.ndim)
+    return (fm + 0.5 * (f1 - f0) * s + (0.5 * (f0 + f1) - fm) * s**2).max(axis=0)
+
+
 def tree_allclose(a, b, rtol=1e-7, atol=0.0):
     la, lb = jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b)
     return len(la) == len(lb) and all(

@@ -12,7 +12,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import energy, forces, initial_state
 
-from helpers import count_vector_field_calls
+from helpers import brute_parabola_max, count_vector_field_calls
 
 
 def period(rpm, z):
@@ -255,14 +255,6 @@ def test_peak_force_self_converges(engagement18):
     assert abs(peaks[1e-4] - ref) < 1e-2 * ref
 
 
-def _parabola_tops(f):
-    """Brute force: the max of the parabola through each consecutive sample triple of
-    ``f`` (K, R) on that triple's own span, (K - 2, R), on a 2001-point grid."""
-    s = np.linspace(-1.0, 1.0, 2001)[:, None, None]
-    f0, fm, f1 = f[:-2], f[1:-1], f[2:]
-    return (fm + 0.5 * (f1 - f0) * s + (0.5 * (f0 + f1) - fm) * s**2).max(axis=0)
-
-
 def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engagement18):
     """With fixed steps the recorded peak is the largest top of the parabolas through each
     step's consecutive samples at quarter steps (dense-output states), read back
@@ -276,7 +268,9 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     # saving at the samples' own times adds only values the step tops already bound
     quarter = jc.simulate(engagement18, n * dt, ts=dt * np.arange(k * n + 1) / k, **fixed)
     f = np.asarray(quarter.roller_sprocket_force)  # (k n + 1, R)
-    tops = _parabola_tops(f)  # triples centred on sample 1 … k n - 1
+    # each consecutive triple's parabola, maximized on its own span by brute force,
+    # (k n - 1, R): triples centred on sample 1 … k n - 1
+    tops = brute_parabola_max(f[:-2], f[1:-1], f[2:])
     inside = np.arange(1, k * n) % k != 0  # ... but never across a step's end
     recorded = float(quarter.peak_contact_force)
     np.testing.assert_allclose(recorded, tops[inside].max(), rtol=1e-8)

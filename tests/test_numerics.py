@@ -10,19 +10,16 @@ import pytest
 from jaxchain._numerics import parabola_max
 from jaxchain._simulate import PeakRecorder
 
+from helpers import brute_parabola_max
+
 _grad = jax.jit(jax.vmap(jax.grad(lambda f: parabola_max(f[0], f[1], f[2]))))
-
-
-def brute(f0, fm, f1, n=20001):
-    s = np.linspace(-1.0, 1.0, n)[:, None]
-    return (fm + 0.5 * (f1 - f0) * s + (0.5 * (f0 + f1) - fm) * s**2).max(axis=0)
 
 
 def test_equals_the_parabola_maximum_and_never_below_a_sample():
     f = np.random.default_rng(0).normal(size=(3, 4000))
     got = np.asarray(parabola_max(*f))
     # grid error ≤ |a| (1e-4)² for a ~ 1
-    np.testing.assert_allclose(got, brute(*f), atol=1e-7)
+    np.testing.assert_allclose(got, brute_parabola_max(*f, n=20001), atol=1e-7)
     assert np.all(got >= f.max(axis=0))
 
 
