@@ -73,7 +73,7 @@ from optimize.problem import (  # noqa: E402
     profile_values,
     remeasure,
 )
-from optimize.run import _jsonable, failures, save_figure, write_atomic  # noqa: E402
+from optimize.run import failures, jsonable, save_figure, write_atomic  # noqa: E402
 
 ADAM = OUT / "optimize_default" / "results.json"
 SOBOL_SEED = 20240606
@@ -495,7 +495,7 @@ def main(argv=None) -> dict:
         results["stage"] = stage
         results["designs"] = [{k: v for k, v in r.items() if k != "_trace"} for r in rows]
         results["elapsed_s"] = time.perf_counter() - start
-        write_atomic(path, json.dumps(_jsonable(results), indent=1))
+        write_atomic(path, json.dumps(jsonable(results), indent=1))
 
     n = len(designs)
     print(f"design space: {n} designs, {len(settings.ensemble)} speed(s) each", flush=True)

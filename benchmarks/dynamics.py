@@ -34,19 +34,18 @@ import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
 from benchmarks._cli import parse, parser  # noqa: E402
-from jaxchain._dynamics import initial_state, vector_field  # noqa: E402
 
 STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
 
 
 def vf_time(scene, n=2000) -> float:
     """µs per vector-field call inside a jitted loop."""
-    y0 = initial_state(scene)
+    y0 = jc.initial_state(scene)
 
     @jax.jit
     def run(y, sc):
         def body(i, y):
-            d = vector_field(i * 1e-9, y, sc)
+            d = jc.vector_field(i * 1e-9, y, sc)
             return jax.tree_util.tree_map(lambda a, b: a + 1e-15 * b, y, d)
 
         return jax.lax.fori_loop(0, n, body, y)

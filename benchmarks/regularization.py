@@ -89,7 +89,6 @@ from benchmarks.work_precision import (  # noqa: E402
     reference,
     tooth_period,
 )
-from jaxchain._scene import ClearanceJoints  # noqa: E402
 
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)
@@ -141,7 +140,7 @@ def joint_laws_with(scene, **values):
     replacing some)."""
     pairs = tuple(
         eqx.tree_at(lambda g: g.element.law, g, law_with(g.element.law, **values))
-        if isinstance(g.element, ClearanceJoints)
+        if isinstance(g.element, jc.ClearanceJoints)
         else g
         for g in scene.pairs
     )
@@ -519,7 +518,7 @@ def fidelity_study(p):
     }
     # the clearance joints' onset width, on the nominal member
     nominal = fidelity_scene("clearance", RPM)
-    law0 = next(g.element.law for g in nominal.pairs if isinstance(g.element, ClearanceJoints))
+    law0 = next(g.element.law for g in nominal.pairs if isinstance(g.element, jc.ClearanceJoints))
     rows = []
     for w in p["joint_widths"]:
         r = _solve_stats(joint_laws_with(nominal, width=w), t1) | {"joint_width_m": w}

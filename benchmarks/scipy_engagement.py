@@ -71,11 +71,10 @@ from benchmarks.work_precision import (  # noqa: E402
     timed,
     tooth_period,
 )
-from jaxchain._contact.johnson import JohnsonCylinder  # noqa: E402
-from jaxchain._dynamics import initial_state  # noqa: E402
-from jaxchain._numerics import parabola_max  # noqa: E402
-from jaxchain._scene import ClearanceJoints, LinkSprings  # noqa: E402
-from jaxchain._simulate import PEAK_SAMPLES  # noqa: E402
+from jaxchain.contact import JohnsonCylinder  # noqa: E402
+from jaxchain.observers import PeakRecord, parabola_max  # noqa: E402
+
+PEAK_SAMPLES = PeakRecord().samples  # intervals per step of simulate's peak record
 
 MIN_TIME_S = 2.0  # repeat a timing until this much has been timed (at least 3, at most 15)
 
@@ -299,7 +298,7 @@ class NumpyField:
         self.groups = []
         for grp in scene.pairs:
             el = grp.element
-            if isinstance(el, ClearanceJoints) or not isinstance(el, LinkSprings):
+            if isinstance(el, jc.ClearanceJoints) or not isinstance(el, jc.LinkSprings):
                 raise ValueError("only LinkSprings pair groups are ported")
             p = len(np.asarray(grp.a))
             self.groups.append(
@@ -496,7 +495,7 @@ SCIPY_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
 
 def scipy_solve(field: NumpyField, y0, t1, method, rtol):
     """One ``solve_ivp`` run and its peak force read from every accepted step as
-    ``jc.simulate`` reads it (:class:`jaxchain._simulate.PeakRecorder`: per roller, samples
+    ``jc.simulate`` reads it (:class:`jaxchain.observers.PeakRecord`: per roller, samples
     at the step's start, ``PEAK_SAMPLES - 1`` interior times from SciPy's dense output and
     its end; the largest top of the parabolas through consecutive triples); all timed."""
     sol = solve_ivp(
@@ -585,7 +584,7 @@ def field_cost(field: NumpyField, scene, y0, n=300) -> dict:
             out.append((time.perf_counter() - t) / reps * 1e6)
         return min(out)
 
-    _, unravel = ravel_pytree(initial_state(scene))
+    _, unravel = ravel_pytree(jc.initial_state(scene))
     jf = jax.jit(lambda t, x: ravel_pytree(jc.vector_field(t, unravel(x), scene))[0])
     yj = jax.numpy.asarray(y0)
     jax.block_until_ready(jf(0.0, yj))
@@ -708,7 +707,7 @@ def main(argv=None):
     field = NumpyField(scene)
     from jax.flatten_util import ravel_pytree
 
-    y0 = np.asarray(ravel_pytree(initial_state(scene))[0])
+    y0 = np.asarray(ravel_pytree(jc.initial_state(scene))[0])
     cost = field_cost(field, scene, y0)
     results["field_cost"] = cost
     print("  field cost [µs/call]:", {k: round(v, 1) for k, v in cost.items()})

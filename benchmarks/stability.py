@@ -65,8 +65,6 @@ from jax.flatten_util import ravel_pytree  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
 from benchmarks._cli import parse, parser  # noqa: E402
-from jaxchain._dynamics import initial_state  # noqa: E402
-from jaxchain._scene import LinkSprings  # noqa: E402
 
 GROWTH = 1e8  # amplification over the horizon counted as divergence (see module doc)
 BLOWUP = 10.0  # a "successful" solve whose peak force exceeds 10× the reference blew up
@@ -174,7 +172,7 @@ def stiffened(scene: jc.Scene, s: float) -> jc.Scene:
     sc = eqx.tree_at(
         lambda x: getattr(x.roller_law, name), scene, getattr(law, name) * jnp.asarray(s)
     )
-    if not all(isinstance(g.element, LinkSprings) for g in sc.pairs):
+    if not all(isinstance(g.element, jc.LinkSprings) for g in sc.pairs):
         raise ValueError("stiffened() scales the lumped scene's link springs only")
     links = tuple(
         eqx.tree_at(
@@ -232,7 +230,7 @@ def _stiffness_field(law) -> str:
 
 @eqx.filter_jit
 def _jacobian(scene):
-    flat, unravel = ravel_pytree(initial_state(scene))
+    flat, unravel = ravel_pytree(jc.initial_state(scene))
 
     def f(x):
         return ravel_pytree(jc.vector_field(0.0, unravel(x), scene))[0]
@@ -243,11 +241,9 @@ def _jacobian(scene):
 def stiffest_element(scene: jc.Scene) -> dict:
     """k_max (links, and the roller/tooth contact's tangent stiffness at the settled
     depths) and m_min: the cheap estimate ω ≈ √(k_max/m_min)."""
-    from jaxchain._dynamics import _points
-
-    y0 = initial_state(scene)
+    y0 = jc.initial_state(scene)
     spr = scene.sprockets[0]
-    xr, _, _ = _points(y0.q, y0.v, scene.roller_body, scene.roller_offset)
+    xr, _ = jc.roller_kinematics(y0, scene)
     c, s = jnp.cos(y0.theta[0]), jnp.sin(y0.theta[0])
     rel = xr - spr.centre
     local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
@@ -637,13 +633,31 @@ def summary(results):
 
 # ------------------------------------------------------------------------ chart
 def chart(results, path=None):
-    """The figure (a matplotlib ``Figure``, no pyplot state touched); saved if ``path``."""
+    """The figure (a matplotlib ``Figure``, no pyplot state touched); saved if ``path``.
+
+    Without a gradient study (``results["gradient"]`` missing, ``None`` or without rows)
+    only the map's panels are drawn: one stability map per method above, the stability
+    regions and the measured/predicted ratios below."""
     from matplotlib.figure import Figure
 
     rows = results["map"]["rows"]
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    fig = Figure(figsize=(16, 9.5))
-    axes = fig.subplots(2, 3)
+    g = results.get("gradient")
+    if g and g["rows"]:
+        fig = Figure(figsize=(16, 9.5))
+        axes = fig.subplots(2, 3)
+        maps, (ax_regions, ax_ratio, ax_gradient) = axes[0], axes[1]
+    else:  # the map's panels only, each of the same size, rows centred
+        n = max(len(methods), 2)
+        fig = Figure(figsize=(16 * n / 3, 9.5))
+        grid = fig.add_gridspec(2, 2 * n)
+        off = n - len(methods)
+        maps = [
+            fig.add_subplot(grid[0, off + 2 * i : off + 2 * i + 2]) for i in range(len(methods))
+        ]
+        ax_regions = fig.add_subplot(grid[1, n - 2 : n])
+        ax_ratio = fig.add_subplot(grid[1, n : n + 2])
+        ax_gradient = None
     styles = {
         "stable": dict(marker="o", color="tab:green", ms=5, label="stable, peak within 10 %"),
         "inaccurate": dict(
@@ -652,7 +666,7 @@ def chart(results, path=None):
         "diverged": dict(marker="x", color="tab:red", ms=6, label="diverged (reported)"),
         "undetected": dict(marker="*", color="k", ms=10, label="blew up, reported successful"),
     }
-    for ax, m in zip(axes[0], methods, strict=False):
+    for ax, m in zip(maps, methods, strict=False):
         mr = [r for r in rows if r["method"] == m]
         s = np.asarray([r["scale"] for r in mr])
         seen = set()
@@ -689,7 +703,7 @@ def chart(results, path=None):
         ax.set_title(f"{m}: stability map")
         ax.legend(fontsize=7, loc="lower left")
     # stability regions, with every mode's hλ at the measured boundary (scale 1)
-    ax = axes[1, 0]
+    ax = ax_regions
     xs, ys = np.meshgrid(np.linspace(-4.2, 0.6, 400), np.linspace(-4, 4, 500))
     lin = results["map"]["linearization"]
     key = "1.0" if "1.0" in lin else next(iter(lin))
@@ -716,7 +730,7 @@ def chart(results, path=None):
     ax.legend(fontsize=7, loc="lower left")
     ax.set_aspect("equal")
     # measured over predicted
-    ax = axes[1, 1]
+    ax = ax_ratio
     width = 0.8 / max(len(methods), 1)
     scales = sorted({r["scale"] for r in rows})
 
@@ -735,9 +749,8 @@ def chart(results, path=None):
     ax.set_ylabel("measured / predicted step (growth ≤ 1e8 over horizon)")
     ax.set_title("measured boundary over the linearized prediction")
     ax.legend(fontsize=7)
-    ax = axes[1, 2]
-    g = results.get("gradient")
-    if g and g["rows"]:
+    if ax_gradient is not None:
+        ax = ax_gradient
         k = [r["periods"] for r in g["rows"]]
         ax.semilogy(k, [r["grad_norm_N"] for r in g["rows"]], "o-", label="|∂P/∂u| (AD)")
         fd = [(r["periods"], abs(r["fd_N"]["0.0001"])) for r in g["rows"] if "fd_N" in r]
@@ -753,9 +766,6 @@ def chart(results, path=None):
         ax.set_ylabel("gradient [N per unit u]")
         ax.set_title(f"soft-peak gradient vs horizon (fixed dt = {g['dt'] * 1e6:.0f} µs)")
         ax.legend(fontsize=7)
-    else:
-        ax.text(0.5, 0.5, "gradient study: full run only", ha="center", va="center")
-        ax.set_axis_off()
     fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=100)

@@ -47,14 +47,10 @@ jax.config.update("jax_enable_x64", True)
 
 import diffrax  # noqa: E402
 import equinox as eqx  # noqa: E402
-import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-import optimistix as optx  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
 from benchmarks._cli import parse, parser  # noqa: E402
-from jaxchain._dynamics import initial_state, vector_field  # noqa: E402
-from jaxchain._simulate import PeakRecorder  # noqa: E402
 
 RPM = 1000.0
 ATOL_PER_RTOL = 1e-3  # atol = 1e-3·rtol: positions ~5e-2 m, speeds ~1 m/s
@@ -105,67 +101,10 @@ def drive_scene():
 
 
 # ----------------------------------------------------------------------------- solves
-def _strong(scene):
-    """As ``simulate`` does: strong dtypes, so a weak leaf never forces a retrace."""
-    return jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
-        scene,
-    )
-
-
-def _controller(rtol, atol):
-    """``simulate``'s default controller."""
-    return diffrax.PIDController(
-        rtol=jnp.asarray(rtol, dtype=float),
-        atol=jnp.asarray(atol, dtype=float),
-        norm=optx.max_norm,
-        pcoeff=0.2,
-        icoeff=0.4,
-    )
-
-
-def _zero_field(t, y, args):
-    return jax.tree_util.tree_map(jnp.zeros_like, y)
-
-
-@eqx.filter_jit
-def _imex_solve(scene, t1, solver, controller, max_steps):
-    """``simulate``'s solve (the same peak record of every accepted step;
-    the state at t1) for an IMEX solver, whose terms are a ``MultiTerm(explicit,
-    implicit)``: here the whole field implicit."""
-    terms = diffrax.MultiTerm(diffrax.ODETerm(_zero_field), diffrax.ODETerm(vector_field))
-    saveat = diffrax.SaveAt(t1=True, solver_state=True)
-    sol = diffrax.diffeqsolve(
-        terms,
-        PeakRecorder(solver),
-        0.0,
-        t1,
-        None,
-        initial_state(scene),
-        args=scene,
-        saveat=saveat,
-        stepsize_controller=controller,
-        max_steps=max_steps,
-        throw=False,
-    )
-    peak = sol.solver_state[1]
-    ok = (sol.result == diffrax.RESULTS.successful) & jnp.isfinite(peak)
-    return peak, jax.tree_util.tree_map(lambda x: x[-1], sol.ys), ok, sol.stats
-
-
 def solve(scene, t1, name, *, rtol=None, dt=None, max_steps=200_000):
     """One solve; returns a dict of JAX arrays (peak, q1, ok, steps, …), not yet synced."""
     factory, family = SOLVERS[name]
-    solver = factory()
-    if family == "imex":
-        peak, y1, ok, stats = _imex_solve(
-            _strong(scene),
-            jnp.asarray(t1, dtype=float),
-            solver,
-            _controller(rtol, ATOL_PER_RTOL * rtol),
-            max_steps,
-        )
-        return dict(peak=peak, q1=y1.q, ok=ok, stats=stats)
+    solver = factory()  # an IMEX solver takes the whole field implicit (jc.SolveOptions)
     if family == "fixed":
         kw = dict(dt0=dt, stepsize_controller=diffrax.ConstantStepSize())
     else:
@@ -466,8 +405,8 @@ def fixed_steps(scene, name, t1, quick):
     start state's fastest mode (|λ|max of the Jacobian)."""
     from jax.flatten_util import ravel_pytree
 
-    flat, unravel = ravel_pytree(initial_state(scene))
-    jac = jax.jacfwd(lambda x: ravel_pytree(vector_field(0.0, unravel(x), scene))[0])(flat)
+    flat, unravel = ravel_pytree(jc.initial_state(scene))
+    jac = jax.jacfwd(lambda x: ravel_pytree(jc.vector_field(0.0, unravel(x), scene))[0])(flat)
     lam = float(np.max(np.abs(np.linalg.eigvals(np.asarray(jac)))))
     # Heun is stable to |λ|dt ≈ 0.9 here (damping ratio ~0.09 of the fastest mode),
     # Euler only to ≈ 0.17; halve from just under each

@@ -6,9 +6,15 @@ Enable float64 yourself (the library never changes global JAX configuration)::
     jax.config.update("jax_enable_x64", True)
 """
 
-from . import contact as contact, design as design, scenes as scenes
+from . import contact as contact, design as design, observers as observers, scenes as scenes
 from ._chain import ChainSpec as ChainSpec
-from ._dynamics import DriveState as DriveState, energy as energy, vector_field as vector_field
+from ._dynamics import (
+    DriveState as DriveState,
+    energy as energy,
+    initial_state as initial_state,
+    roller_kinematics as roller_kinematics,
+    vector_field as vector_field,
+)
 from ._ensemble import (
     EnsembleSolution as EnsembleSolution,
     simulate_ensemble as simulate_ensemble,
@@ -19,6 +25,7 @@ from ._gap import (
     signed_distance as signed_distance,
 )
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
+from ._options import SolveOptions as SolveOptions
 from ._plot import plot_profiles as plot_profiles
 from ._plot_drive import (
     animate as animate,
@@ -32,7 +39,19 @@ from ._profile import (
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,
 )
-from ._scene import Scene as Scene, Sprocket as Sprocket
-from ._simulate import Result as Result, Solution as Solution, simulate as simulate
+from ._result import (
+    Result as Result,
+    result_messages as result_messages,
+    result_names as result_names,
+)
+from ._scene import (
+    Anchors as Anchors,
+    ClearanceJoints as ClearanceJoints,
+    LinkSprings as LinkSprings,
+    PairGroup as PairGroup,
+    Scene as Scene,
+    Sprocket as Sprocket,
+)
+from ._simulate import Solution as Solution, simulate as simulate
 
 __version__ = "0.1.0"

@@ -7,21 +7,22 @@ import math
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 from jaxtyping import Array, ArrayLike, Float
 
 from ._chain import ChainSpec
-from ._dynamics import forces, initial_state, rates
+from ._ensemble import stack
 from ._numerics import is_concrete
+from ._observers import EXP_CAP as EXP_CAP, SoftPeak, window_weight as window_weight
+from ._options import SolveOptions, tree_strong, with_options
 from ._profile import ToothProfile, iso606_limits
+from ._result import Result, raise_if_failed
 from ._scene import Scene
 from ._scenes.statics import resettle
-from ._simulate import Result, _classify
+from ._solve import solve
 
 __all__ = [
     "PARAMETERS",
@@ -31,8 +32,6 @@ __all__ = [
     "window_weight",
     "ProfileObjective",
 ]
-
-EXP_CAP = 60.0  # forces beyond reference + 60·temperature saturate the soft maximum
 
 PARAMETERS = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter")
 
@@ -102,75 +101,12 @@ class DesignSpace(eqx.Module):
         return jax.nn.sigmoid(jnp.asarray(u))
 
 
-def window_weight(t, t_start, rise):
-    """Smooth (C¹) window: 0 before ``t_start − rise/2``, 1 after ``t_start + rise/2``; its
-    integral over [t0, t1] is ``t1 − t_start`` when the ramp lies inside."""
-    s = jnp.clip((t - t_start) / rise + 0.5, 0.0, 1.0)
-    return s * s * (3 - 2 * s)
-
-
 class PeakForce(NamedTuple):
     """Result of :func:`soft_peak_force`."""
 
     soft: Float[Array, ""]  # smooth peak of the roller/tooth normal force [N]
     result: Result
     num_steps: Array
-
-
-def _soft_field(t, state, args):
-    y, _ = state
-    scene, t_start, rise, reference, temperature = args
-    fr = forces(t, y, scene)
-    f = jnp.sum(fr.roller_normal, axis=0)  # (R,) over sprockets
-    w = window_weight(t, t_start, rise)
-    # exponent smoothly capped at EXP_CAP: a trial step the adaptive controller will reject
-    # can see absurd forces, and exp overflowing there turns the whole gradient into NaN
-    # (0·inf in the backward pass of the step's accept/reject select)
-    e = (f - reference) / temperature
-    e = e - jax.nn.softplus(e - EXP_CAP)
-    return rates(t, y, scene, fr), w * jnp.sum(jnp.exp(e))
-
-
-@eqx.filter_jit
-def _soft_solve(
-    scene,
-    t0,
-    t1,
-    t_start,
-    rise,
-    reference,
-    temperature,
-    solver,
-    controller,
-    dt0,
-    max_steps,
-    adjoint,
-):
-    y0 = (initial_state(scene), jnp.zeros((), scene.q0.dtype))
-    sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(_soft_field),
-        solver,
-        t0,
-        t1,
-        dt0,
-        y0,
-        args=(scene, t_start, rise, reference, temperature),
-        saveat=diffrax.SaveAt(t1=True),
-        stepsize_controller=controller,
-        max_steps=max_steps,
-        adjoint=adjoint,
-        throw=False,
-    )
-    y1, acc = jax.tree_util.tree_map(lambda x: x[-1], sol.ys)
-    span = t1 - t_start
-    soft = reference + temperature * jnp.log(jnp.maximum(acc, 1e-300) / span)
-    size = jnp.max(jnp.abs(scene.q0[:, :2])) + 1.0
-    finite = (
-        jnp.isfinite(soft)
-        & jnp.all(jnp.isfinite(y1.q))
-        & jnp.all(jnp.abs(y1.q[:, :2]) < 1e3 * size)
-    )
-    return soft, _classify(sol.result, finite), sol.stats["num_steps"]
 
 
 def soft_peak_force(
@@ -181,84 +117,35 @@ def soft_peak_force(
     rise: ArrayLike | None = None,
     temperature: ArrayLike = 50.0,
     reference: ArrayLike = 0.0,
-    solver: diffrax.AbstractSolver | None = None,
-    dt: float | None = None,
-    rtol: float = 1e-6,
-    atol: float = 1e-9,
-    max_steps: int = 200_000,
-    adjoint: diffrax.AbstractAdjoint | None = None,
+    options: SolveOptions | None = None,
+    **solve_options,
 ) -> PeakForce:
-    """Smooth peak of the roller/tooth normal force over time and rollers:
+    """Smooth peak of the roller/tooth normal force over [t_start, t1] (from t0 = 0): the
+    :class:`~jaxchain.observers.SoftPeak` observer integrated by the one solve
+    (``rise`` defaults to 5 % of the window).
 
-        P = F_ref + τ·log( (1/(t1 − t_start)) ∫ w(t) Σ_i exp((F_i(t) − F_ref)/τ) dt )
+    Solve options as in :func:`~jaxchain.simulate` (``options=`` and/or keywords).
+    ``dt`` gives fixed steps, ⌈t1/dt⌉ of them with every step checkpointed (a smooth
+    function of every parameter, as needed for gradients checked against finite
+    differences); without it, adaptive steps (PID, ``rtol``/``atol`` in the max norm).
 
-    a log-mean-exp ("soft maximum") of temperature τ = ``temperature`` [N] over the
-    window ``w`` (from ``t_start``, smooth over ``rise``), integrated by the ODE solver
-    itself as one extra state: exact in continuous time (no sampling of the peak between
-    save points), differentiable, and free (the forces are those of the vector field).
-    τ → 0 gives the sharp maximum; otherwise P lies below it by about
-    τ·log(window / time spent near the peak) and above it by at most τ·log(rollers near
-    the peak). ``reference`` shifts the exponent, which saturates smoothly 60·τ above it
-    (an overflow guard: use a force of the order of the peak, e.g. a baseline's).
-
-    ``dt`` gives fixed steps (``diffrax.ConstantStepSize``; a smooth function of every
-    parameter, as needed for gradients checked against finite differences), with the
-    number of steps ⌈(t1 − t0)/dt⌉ and recursive checkpointing at every step (exact
-    discrete gradient; memory = steps × state). Without ``dt``, adaptive steps (PID,
-    ``rtol``/``atol`` in the max norm).
+    The outcome is reported, not raised: ``PeakForce.result`` is classified exactly as
+    ``simulate`` classifies the same solve (:class:`ProfileObjective` raises).
     """
-    if solver is None:
-        solver = diffrax.Tsit5()
+    opts = with_options(options, solve_options, "soft_peak_force")
     if is_concrete((t1, t_start, temperature)):
         if not float(temperature) > 0:
             raise ValueError(f"temperature must be > 0 N, got {temperature}")
         if not 0.0 <= float(t_start) < float(t1):
             raise ValueError(f"t_start must be in [0, t1 = {float(t1):.6g}) s, got {t_start}")
-    n = None
-    if dt is not None:
-        if not dt > 0:
-            raise ValueError(f"dt must be > 0 s, got {dt}")
-        n = max(1, math.ceil(float(t1) / dt - 1e-9))  # the step count fixes the shapes
-    t1 = jnp.asarray(t1, dtype=float)
+    resolved = opts.resolve(0.0, t1)  # before t1 becomes an array: dt's step count
     t0 = jnp.asarray(0.0, dtype=float)
+    t1 = jnp.asarray(t1, dtype=float)
     t_start = jnp.asarray(t_start, dtype=float)
-    if rise is None:
-        rise = 0.05 * (t1 - t_start)
-    rise = jnp.asarray(rise, dtype=float)
-    if n is not None:
-        controller = diffrax.ConstantStepSize()
-        dt0 = t1 / n
-        max_steps = n
-        adjoint = adjoint or diffrax.RecursiveCheckpointAdjoint(checkpoints=n)
-    else:
-        controller = diffrax.PIDController(
-            rtol=jnp.asarray(rtol, dtype=float),
-            atol=jnp.asarray(atol, dtype=float),
-            norm=optx.max_norm,
-            pcoeff=0.2,
-            icoeff=0.4,
-        )
-        dt0 = None
-        adjoint = adjoint or diffrax.RecursiveCheckpointAdjoint()
-    scene = jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
-        scene,
-    )
-    soft, result, steps = _soft_solve(
-        scene,
-        t0,
-        t1,
-        t_start,
-        rise,
-        jnp.asarray(reference, dtype=float),
-        jnp.asarray(temperature, dtype=float),
-        solver,
-        controller,
-        dt0,
-        max_steps,
-        adjoint,
-    )
-    return PeakForce(soft, result, steps)
+    rise = 0.05 * (t1 - t_start) if rise is None else rise
+    observer = SoftPeak(t_start, rise, temperature, reference)
+    traj = solve(tree_strong(scene), t0, t1, None, resolved, (observer,))
+    return PeakForce(traj.observed[0], traj.result, traj.stats["num_steps"])
 
 
 class _Config(eqx.Module):
@@ -267,12 +154,8 @@ class _Config(eqx.Module):
     t_start: Array
     temperature: Array
     reference: Array
+    options: SolveOptions
     t1: float = eqx.field(static=True)
-    dt: float | None = eqx.field(static=True)
-    solver: object = eqx.field(static=True)
-    rtol: float = eqx.field(static=True)
-    atol: float = eqx.field(static=True)
-    max_steps: int = eqx.field(static=True)
     sprocket: int = eqx.field(static=True)
     take_up: float = eqx.field(static=True)
     combine: str = eqx.field(static=True)
@@ -288,16 +171,14 @@ def _member(u, space, scene, cfg):
         t_start=cfg.t_start,
         temperature=cfg.temperature,
         reference=cfg.reference,
-        solver=cfg.solver,
-        dt=cfg.dt,
-        rtol=cfg.rtol,
-        atol=cfg.atol,
-        max_steps=cfg.max_steps,
+        options=cfg.options,
     )
 
 
 def _loss(u, space, scenes, cfg):
-    out = jax.vmap(_member, in_axes=(None, None, 0, None))(u, space, scenes, cfg)
+    # members: the scenes' array leaves (stack keeps the agreed non-array leaves as they are)
+    member_axes = (None, None, eqx.if_array(0), None)
+    out = eqx.filter_vmap(_member, in_axes=member_axes)(u, space, scenes, cfg)
     if cfg.combine == "mean":
         value = jnp.mean(out.soft)
     else:  # soft maximum of the members at the same temperature
@@ -324,13 +205,21 @@ class ProfileObjective:
     theorem). Ensemble members are vmapped and combined by ``combine`` ("mean" or
     "max", a soft maximum of the members at the same temperature).
 
+    A member whose solve failed makes the evaluation fail: ``RuntimeError`` naming the
+    members and what to change (``throw=True``, the default), or with ``throw=False`` a
+    NaN value and gradient, the members' codes in the returned :class:`PeakForce` — never
+    a plausible number from a failed solve.
+
     Args:
         space: the :class:`DesignSpace`.
         build: profile -> settled scene(s) (concrete, outside the gradient).
+        t1, t_start, temperature, reference: as in :func:`soft_peak_force`.
         sprocket: index of the designed sprocket in the scenes.
-        t1, t_start, temperature, reference, dt, solver, rtol, atol, max_steps: as in
-            :func:`soft_peak_force`.
         take_up: the take-up the scenes were settled with (closed drives).
+        combine: "mean" or "max" over the members.
+        throw: raise when a member fails (see above).
+        options, **solve_options: as in :func:`~jaxchain.simulate` (``dt=`` for fixed
+            steps).
     """
 
     def __init__(
@@ -342,14 +231,12 @@ class ProfileObjective:
         t_start: float = 0.0,
         temperature: float = 50.0,
         reference: float = 0.0,
-        dt: float | None = None,
-        solver: diffrax.AbstractSolver | None = None,
-        rtol: float = 1e-6,
-        atol: float = 1e-9,
-        max_steps: int = 200_000,
         sprocket: int = 0,
         take_up: float = 0.0,
         combine: str = "mean",
+        throw: bool = True,
+        options: SolveOptions | None = None,
+        **solve_options,
     ):
         if combine not in ("mean", "max"):
             raise ValueError(f"combine must be 'mean' or 'max', got {combine!r}")
@@ -359,16 +246,13 @@ class ProfileObjective:
             raise ValueError(f"t_start must be in [0, t1 = {t1:.6g}) s, got {t_start}")
         self.space = space
         self.build = build
+        self.throw = bool(throw)
         self.config = _Config(
             t_start=jnp.asarray(t_start, dtype=float),
             temperature=jnp.asarray(temperature, dtype=float),
             reference=jnp.asarray(reference, dtype=float),
+            options=with_options(options, solve_options, "ProfileObjective"),
             t1=float(t1),
-            dt=None if dt is None else float(dt),
-            solver=solver,
-            rtol=float(rtol),
-            atol=float(atol),
-            max_steps=int(max_steps),
             sprocket=int(sprocket),
             take_up=float(take_up),
             combine=combine,
@@ -378,27 +262,40 @@ class ProfileObjective:
     def scenes(self, u) -> Scene:
         """The settled scenes at ``u``, stacked along a leading ensemble axis."""
         built = self.build(self.space.profile(jnp.asarray(u, dtype=float)))
-        built = [built] if isinstance(built, Scene) else list(built)
-        return jax.tree_util.tree_map(lambda *x: jnp.stack(x), *built)
-
-    def _v(self, u, scenes):
-        return _value(jnp.asarray(u, dtype=float), self.space, scenes, self.config)
-
-    def _vg(self, u, scenes):
-        return _value_and_grad(jnp.asarray(u, dtype=float), self.space, scenes, self.config)
+        return stack([built] if isinstance(built, Scene) else list(built))
 
     def _count(self, scenes):
         self.evaluations += jax.tree_util.tree_leaves(scenes)[0].shape[0]
 
+    def _checked(self, value, grad, out: PeakForce):
+        """(value, grad) when every member succeeded; else raise or NaN them."""
+        if self.throw:
+            raise_if_failed(out.result, None, "ProfileObjective")
+        elif not bool(jnp.all(out.result == Result.successful)):
+            value = jnp.full_like(value, jnp.nan)
+            grad = None if grad is None else jnp.full_like(grad, jnp.nan)
+        return value, grad
+
     def value(self, u) -> tuple[Array, PeakForce]:
         """Objective at ``u`` [N] and the members' :class:`PeakForce`."""
-        scenes = self.scenes(u)
-        self._count(scenes)
-        return self._v(u, scenes)
+        return self.value_on(u, self.scenes(u))
 
     def value_and_grad(self, u) -> tuple[Array, Array, PeakForce]:
         """Objective [N], its gradient in ``u`` [N], and the members' results."""
-        scenes = self.scenes(u)
+        return self.value_and_grad_on(u, self.scenes(u))
+
+    def value_on(self, u, scenes: Scene) -> tuple[Array, PeakForce]:
+        """:meth:`value` on ``scenes`` already built (``self.scenes(u0)``) and held: the
+        profile at ``u`` is swapped in and resettled to first order — the same model the
+        gradient at ``u0`` sees, for finite-difference checks."""
         self._count(scenes)
-        (value, out), grad = self._vg(u, scenes)
+        value, out = _value(jnp.asarray(u, dtype=float), self.space, scenes, self.config)
+        return self._checked(value, None, out)[0], out
+
+    def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, PeakForce]:
+        """:meth:`value_and_grad` on ``scenes`` already built (see :meth:`value_on`)."""
+        self._count(scenes)
+        u = jnp.asarray(u, dtype=float)
+        (value, out), grad = _value_and_grad(u, self.space, scenes, self.config)
+        value, grad = self._checked(value, grad, out)
         return value, grad, out

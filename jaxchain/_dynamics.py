@@ -18,7 +18,18 @@ from ._gap import GapShape, gap_contact
 from ._numerics import cross2, safe_norm, safe_normalize
 from ._scene import LinkSprings, Scene
 
-__all__ = ["DriveState", "initial_state", "vector_field", "rates", "outputs", "Forces", "energy"]
+__all__ = [
+    "DriveState",
+    "initial_state",
+    "vector_field",
+    "rates",
+    "outputs",
+    "Forces",
+    "energy",
+    "roller_contacts",
+    "roller_kinematics",
+    "contact_slots_ok",
+]
 
 
 class DriveState(NamedTuple):
@@ -37,11 +48,12 @@ class Forces(NamedTuple):
     roller_normal: Float[Array, "S R"]  # roller/tooth normal force per sprocket [N]
     sprocket_torque: Float[Array, " S"]  # torque of the chain on each sprocket [N·m]
     sprocket_force: Float[Array, "S 2"]  # force of the chain on each sprocket's axis [N]
-    slots_ok: Array  # bool: every sprocket's farthest contact slot is out of reach
     element_tension: Float[Array, " E"]  # tensions of tension-carrying elements [N]
 
 
 def initial_state(scene: Scene) -> DriveState:
+    """The state the scene starts from (its bodies' q0, v0; the sprockets' angle0 and
+    speed): what :func:`vector_field` takes as ``y`` at t0."""
     return DriveState(
         q=scene.q0,
         v=scene.v0,
@@ -65,6 +77,12 @@ def _points(q, v, body, offset, cs=None):
     return x, xd, arm
 
 
+def roller_kinematics(y: DriveState, scene: Scene) -> tuple[Array, Array]:
+    """(R, 2) roller centres [m] and (R, 2) their velocities [m/s], world frame."""
+    x, xd, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+    return x, xd
+
+
 def _scatter(n, body, arm, f):
     """Generalized forces (fx, fy, τ) of point forces f applied at arms, summed per body."""
     gen = jnp.concatenate([f, cross2(arm, f)[:, None]], axis=-1)
@@ -79,7 +97,6 @@ class RollerContacts(NamedTuple):
     normal: Float[Array, "S R"]  # normal force per sprocket and roller [N]
     sprocket_torque: Float[Array, " S"]
     sprocket_force: Float[Array, "S 2"]
-    slots_ok: Array
 
 
 def _contact_slots(scene: Scene, n_rollers: int) -> int | None:
@@ -108,17 +125,7 @@ def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     def one(shape, centre, theta, omega):
         c, s = jnp.cos(theta), jnp.sin(theta)
         rel_all = xr - centre
-        if slots is not None:
-            # only the nearest rollers can touch: the others' force is exactly zero
-            d2 = jnp.sum(rel_all * rel_all, -1)
-            neg, sel = jax.lax.top_k(-jax.lax.stop_gradient(d2), slots)
-            # all tooth material lies inside the tip circle: a roller whose centre is
-            # farther than tip radius + roller radius (+ margin) cannot touch a tooth
-            reach = shape.tip_diameter / 2 + 1.05 * r
-            ok = jnp.min(neg) < -(reach**2)
-        else:
-            sel = jnp.arange(n_r)
-            ok = jnp.asarray(True)
+        sel = jnp.arange(n_r) if slots is None else _nearest(rel_all, slots)[0]
         rel, vsel = rel_all[sel], vr[sel]
         local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
         depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(shape, local)
@@ -138,11 +145,37 @@ def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
             jnp.zeros(n_r, fn.dtype).at[sel].add(fn),
             jnp.sum(cross2(arm_s, -f)),
             -jnp.sum(f, axis=0),
-            ok,
         )
 
-    f, normal, torque, pull, ok = jax.vmap(one)(shapes, centres, y.theta, y.omega)
-    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull, jnp.all(ok))
+    f, normal, torque, pull = jax.vmap(one)(shapes, centres, y.theta, y.omega)
+    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull)
+
+
+def _nearest(rel, slots: int):
+    """Indices of the ``slots`` rollers nearest the axis (``rel``: centres from the axis),
+    and the squared distance of the farthest of them (no gradient: a selection)."""
+    d2 = jax.lax.stop_gradient(jnp.sum(rel * rel, -1))
+    neg, sel = jax.lax.top_k(-d2, slots)
+    return sel, -jnp.min(neg)
+
+
+def contact_slots_ok(y: DriveState, scene: Scene) -> Array:
+    """Whether every sprocket's contact slots cover every roller within reach: the
+    farthest roller checked lies beyond the tip radius + 1.05 roller radii (all tooth
+    material lies inside the tip circle), so no roller left out can touch a tooth.
+    True when every roller is checked."""
+    xr, _, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+    slots = _contact_slots(scene, xr.shape[0])
+    if slots is None:
+        return jnp.asarray(True)
+    r = scene.roller_radius
+    tips = jnp.stack([s.profile.tip_diameter for s in scene.sprockets])
+    centres = jnp.stack([s.centre for s in scene.sprockets])
+
+    def one(tip, centre):
+        return _nearest(xr - centre, slots)[1] > (tip / 2 + 1.05 * r) ** 2
+
+    return jnp.all(jax.vmap(one)(tips, centres))
 
 
 def forces(t, y: DriveState, scene: Scene) -> Forces:
@@ -184,7 +217,6 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         roller_normal=rc.normal,
         sprocket_torque=rc.sprocket_torque,
         sprocket_force=rc.sprocket_force,
-        slots_ok=rc.slots_ok,
         element_tension=jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype),
     )
 
@@ -221,7 +253,6 @@ def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
         "sprocket_speed": y.omega,
         "sprocket_angle": y.theta,
         "sprocket_torque": fr.sprocket_torque,
-        "contact_slots_ok": fr.slots_ok,
     }
 
 

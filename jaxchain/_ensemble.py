@@ -20,8 +20,8 @@ import dataclasses
 import functools
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -29,8 +29,12 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from ._observers import PeakRecord
+from ._options import Resolved, SolveOptions, with_options
+from ._result import Result, raise_if_failed, result_messages, result_names
 from ._scene import Scene
-from ._simulate import Result, Solution, _prepare, _solve
+from ._simulate import Solution, peak_of, time_span
+from ._solve import solve, strong_scene
 
 __all__ = ["stack", "simulate_ensemble", "EnsembleSolution"]
 
@@ -172,7 +176,7 @@ class EnsembleSolution(eqx.Module):
     @property
     def successful(self) -> np.ndarray:
         """(M,) bool: which members succeeded."""
-        return np.asarray(self.result._value) == _code(Result.successful)
+        return np.asarray(self.result == Result.successful)
 
     @property
     def ok(self) -> bool:
@@ -187,13 +191,12 @@ class EnsembleSolution(eqx.Module):
     @property
     def messages(self) -> list[str]:
         """Per member: what happened and what to change ("" when successful)."""
-        return [Result._index_to_message[int(v)] for v in np.asarray(self.result._value)]
+        return result_messages(self.result)
 
     @property
     def result_names(self) -> list[str]:
         """Per member: the :class:`~jaxchain.Result` name ("successful", "diverged", …)."""
-        names = {_code(item): name for name, item in Result._name_to_item.items()}
-        return [names[int(v)] for v in np.asarray(self.result._value)]
+        return result_names(self.result)
 
     def member(self, i: int) -> Solution:
         """Member ``i`` as a :class:`~jaxchain.Solution`."""
@@ -220,10 +223,6 @@ class EnsembleSolution(eqx.Module):
         )
 
 
-def _code(item) -> int:
-    return int(np.asarray(item._value))
-
-
 # ---------------------------------------------------------------------------- devices
 @functools.cache
 def _mesh_of(devices: tuple) -> Mesh:
@@ -248,19 +247,32 @@ def _resolve_mesh(mesh, sharding) -> Mesh:
 
 
 # ---------------------------------------------------------------------------- batched solve
-def _vmapped(scenes, dt0, args):
-    """``_solve`` vmapped over the scenes' array leaves (and per-member ``dt0``)."""
+class _Args(NamedTuple):
+    """Everything ``solve`` takes besides the scene."""
+
+    t0: Array
+    t1: Array
+    ts: Array
+    resolved: Resolved
+    observers: tuple
+
+    def with_dt0(self, dt0):
+        return self._replace(resolved=self.resolved._replace(dt0=dt0))
+
+
+def _vmapped(scenes, dt0, args: _Args):
+    """``solve`` vmapped over the scenes' array leaves (and per-member ``dt0``)."""
     if dt0 is None:
-        return eqx.filter_vmap(lambda s: _solve(s, *args))(scenes)
-    return eqx.filter_vmap(lambda s, h: _solve(s, *args._replace(dt0=h)))(scenes, dt0)
+        return eqx.filter_vmap(lambda s: solve(s, *args))(scenes)
+    return eqx.filter_vmap(lambda s, h: solve(s, *args.with_dt0(h)))(scenes, dt0)
 
 
 @eqx.filter_jit
 def _solve_batch(scenes, dt0, args, mesh):
-    """``_solve`` vmapped over the member axis, the axis split across ``mesh``'s devices
+    """``solve`` vmapped over the member axis, the axis split across ``mesh``'s devices
     with ``shard_map``: each device runs its own batched while loop over its slice and
     stops with its own slowest member. ``dt0``: per-member (P,) steps, or None (then
-    ``args.dt0`` applies to all)."""
+    the resolved options' ``dt0`` applies to all)."""
     axis = mesh.axis_names[0]
     s_dyn, s_static = eqx.partition(scenes, eqx.is_array)
     a_dyn, a_static = eqx.partition(args, eqx.is_array)
@@ -346,64 +358,45 @@ def _plan(pred: np.ndarray, group_waste: float, n_devices: int) -> list[np.ndarr
     return groups
 
 
-def _pilot_controller(controller, rtol, atol, pilot_rtol):
-    if not isinstance(controller, diffrax.PIDController):
-        return None
-    scale = pilot_rtol / rtol
-    return eqx.tree_at(
-        lambda c: (c.rtol, c.atol),
-        controller,
-        (
-            jnp.asarray(controller.rtol, dtype=float) * scale,
-            jnp.asarray(controller.atol, dtype=float) * scale,
-        ),
-    )
-
-
 # ---------------------------------------------------------------------------- driver
 def simulate_ensemble(
     scenes: Scene | Sequence[Scene],
     t1: ArrayLike,
     *,
+    t0: ArrayLike = 0.0,
+    ts: ArrayLike | None = None,
+    n_save: int = 501,
     group_waste: float | None = 1.5,
     pilot_rtol: float | None = None,
     cost: ArrayLike | None = None,
     mesh: Mesh | None = None,
     sharding: str | None = None,
-    t0: ArrayLike = 0.0,
-    solver: diffrax.AbstractSolver | None = None,
-    rtol: float = 1e-6,
-    atol: float = 1e-9,
-    dt0: ArrayLike | None = None,
-    max_steps: int = 200_000,
-    ts: ArrayLike | None = None,
-    n_save: int = 501,
-    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-    adjoint: diffrax.AbstractAdjoint | None = None,
-    progress: bool = False,
     throw: bool = True,
+    options: SolveOptions | None = None,
+    **solve_options,
 ) -> EnsembleSolution:
     """Simulate many scenes of one structure from ``t0`` to ``t1`` [s] together.
 
     Each member's result is that of :func:`~jaxchain.simulate` on it alone (the same
-    jitted solve, vmapped); members only share the time span, save times and solver
+    jitted solve, vmapped); members only share the time span, save times and solve
     options.
 
     Args:
         scenes: a list of scenes of one structure, or a stacked scene
             (:func:`~jaxchain.scenes.stack`).
-        t1, t0: time span [s], shared.
+        t1, t0, ts, n_save: time span and save times, as in :func:`~jaxchain.simulate`.
         group_waste: run the members in groups of similar predicted cost, each group's
             predicted waste ratio (steps executed over steps needed, padding included)
             at most this; None: one batch of all members. Fixed-step solves cost
             ``(t1 − t0)/dt0`` steps (no pilot; one batch unless ``dt0`` is per member);
             traced calls (inside the caller's ``jax.jit``/``jax.grad``) run as one
             batch, its member axis partitioned over ``mesh`` by the compiler instead of
-            ``shard_map`` (not yet differentiable through diffrax's loop).
+            ``shard_map`` (reverse-mode AD of diffrax's loop inside ``shard_map`` fails
+            in equinox 0.13).
         pilot_rtol: the cost prediction, when no ``cost`` is given, is each member's
             step count in a pilot solve of the whole batch at this looser tolerance
-            (``atol`` scaled alike; default ``100·rtol``, at most ``1e-3``). Needs a
-            ``diffrax.PIDController``; with another controller give ``cost`` or get one
+            (``atol`` scaled alike; default ``100·rtol``, at most ``1e-3``). Needs the
+            default PID controller; with another controller give ``cost`` or get one
             batch. The pilot ranks members well, but where its loose solve is held at
             the explicit stability limit of stiff contacts its step counts have a floor
             that compresses their spread: it then splits less than the true costs
@@ -416,13 +409,11 @@ def simulate_ensemble(
             own batched while loop (``jax.shard_map``).
         sharding: ``"auto"``: a mesh of all local devices. Default: one device (the
             same code path).
-        dt0: as in :func:`~jaxchain.simulate`, or (M,) per-member steps (e.g. fixed
-            steps scaled to each member's speed).
-        solver, rtol, atol, max_steps, ts, n_save, stepsize_controller, adjoint,
-            progress: as in :func:`~jaxchain.simulate`.
         throw: raise ``RuntimeError`` naming every failed member and why; with
             ``throw=False`` check ``EnsembleSolution.result`` / ``.failed`` /
             ``.messages``.
+        options, **solve_options: as in :func:`~jaxchain.simulate`; ``dt0`` may also be
+            (M,) per-member steps (e.g. fixed steps scaled to each member's speed).
 
     Returns:
         :class:`EnsembleSolution`, members in the order given.
@@ -430,35 +421,24 @@ def simulate_ensemble(
     Compiled once per scene structure, options and padded batch size: a second call with
     new values and the same batch sizes does not retrace.
     """
+    opts = with_options(options, solve_options, "simulate_ensemble")
     if not isinstance(scenes, Scene):
         scenes = stack(scenes)
     m = _n_members(scenes)
     if group_waste is not None and not group_waste >= 1.0:
         raise ValueError(f"group_waste must be >= 1 (or None), got {group_waste}")
+    dt0 = opts.dt0
     member_dt0 = dt0 is not None and np.ndim(dt0) == 1
     if member_dt0 and np.shape(dt0) != (m,):
         raise ValueError(f"a per-member dt0 must have shape ({m},), got {np.shape(dt0)}")
     if dt0 is not None and not member_dt0 and np.ndim(dt0) != 0:
         raise ValueError(f"dt0 must be a scalar or ({m},), got shape {np.shape(dt0)}")
-    scenes, args = _prepare(
-        scenes,
-        t1,
-        t0=t0,
-        solver=solver,
-        rtol=rtol,
-        atol=atol,
-        dt0=dt0,
-        max_steps=max_steps,
-        ts=ts,
-        n_save=n_save,
-        stepsize_controller=stepsize_controller,
-        adjoint=adjoint,
-        progress=progress,
-        caller="simulate_ensemble",
-    )
+    scenes = strong_scene(scenes, "simulate_ensemble")
+    t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
+    args = _Args(t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(),))
     dt0_m = None
     if member_dt0:
-        dt0_m, args = args.dt0, args._replace(dt0=None)
+        dt0_m, args = args.resolved.dt0, args.with_dt0(None)
     mesh = _resolve_mesh(mesh, sharding)
     n_dev = int(mesh.devices.size)
     traced = any(
@@ -472,8 +452,8 @@ def simulate_ensemble(
         same = size == m and np.array_equal(full, np.arange(m))
         sub = scenes if same else _take(scenes, full)
         h = None if dt0_m is None else (dt0_m if same else dt0_m[full])
-        solve = _solve_batch_traced if traced else _solve_batch
-        return solve(sub, h, a, mesh), size
+        batch = _solve_batch_traced if traced else _solve_batch
+        return batch(sub, h, a, mesh), size
 
     # ---- plan
     predicted = None
@@ -481,19 +461,23 @@ def simulate_ensemble(
         predicted = np.asarray(cost, dtype=float)
         if predicted.shape != (m,) or not np.all(np.isfinite(predicted) & (predicted > 0)):
             raise ValueError(f"cost must be ({m},) finite and > 0, got {cost!r}")
-    fixed = isinstance(args.controller, diffrax.ConstantStepSize)
+    fixed = opts.fixed
     if traced or group_waste is None or m == 1 or (fixed and dt0_m is None):
         groups = [np.arange(m)]
     else:
         if predicted is None and fixed:  # fixed per-member steps: the cost is known
-            span = float(args.t1) - float(args.t0)
+            span = float(t1a) - float(t0a)
             predicted = np.ceil(span / np.asarray(dt0_m, dtype=float))
-        elif predicted is None:
-            prtol = min(100.0 * rtol, 1e-3) if pilot_rtol is None else float(pilot_rtol)
-            pilot = _pilot_controller(args.controller, rtol, atol, prtol)
-            if pilot is not None:
-                (_, _, _, pstats, _), _ = run(np.arange(m), args._replace(controller=pilot))
-                predicted = np.asarray(pstats["num_steps"], dtype=float)[:m]
+        elif predicted is None and opts.stepsize_controller is None:
+            prtol = min(100.0 * opts.rtol, 1e-3) if pilot_rtol is None else float(pilot_rtol)
+            scale = prtol / opts.rtol
+            pilot = dataclasses.replace(opts, rtol=prtol, atol=opts.atol * scale)
+            # only the controller's tolerance arrays differ: the same compiled solve
+            controller = pilot.resolve(t0a, t1a).controller
+            traj, _ = run(
+                np.arange(m), args._replace(resolved=args.resolved._replace(controller=controller))
+            )
+            predicted = np.asarray(traj.stats["num_steps"], dtype=float)[:m]
         groups = [np.arange(m)] if predicted is None else _plan(predicted, group_waste, n_dev)
 
     # ---- run: groups are dispatched one after the other (asynchronously)
@@ -507,7 +491,7 @@ def simulate_ensemble(
     loops = 1 if traced else n_dev  # traced: one loop over the batch (GSPMD)
     executed = 0
     for out, size in zip(outs, sizes, strict=True):
-        steps_g = out[3]["num_steps"].reshape(loops, size // loops)
+        steps_g = out.stats["num_steps"].reshape(loops, size // loops)
         executed = executed + (size // loops) * jnp.sum(jnp.max(steps_g, axis=1))
 
     # ---- back to the members' order: member g[i] sits at row offset(g) + i
@@ -526,34 +510,19 @@ def simulate_ensemble(
         merged = jax.tree_util.tree_map(
             lambda x: jax.device_put(x, spread) if eqx.is_array(x) else x, merged
         )
-    saved, peak, result, stats, y1 = merged
-    steps = stats["num_steps"]
+    saved, result, stats = merged.saved, merged.result, merged.stats
     if throw:
-        if traced:
-            saved = result.error_if(saved, jnp.any(result._value != _code(Result.successful)))
-        else:
-            codes = np.asarray(result._value)
-            bad = np.nonzero(codes != _code(Result.successful))[0]
-            if bad.size:
-                names = {_code(item): name for name, item in Result._name_to_item.items()}
-                lines = [
-                    f"member {i}: {names[int(codes[i])]}: {Result._index_to_message[int(codes[i])]}"
-                    for i in bad
-                ]
-                raise RuntimeError(
-                    f"simulate_ensemble: {bad.size} of {m} members failed "
-                    f"(members {[int(i) for i in bad]}):\n" + "\n".join(lines)
-                )
+        saved = raise_if_failed(result, saved, "simulate_ensemble")
     return EnsembleSolution(
-        ts=args.ts,
-        peak_contact_force=peak,
+        ts=tsa,
+        peak_contact_force=peak_of(saved, merged.observed[0]),
         result=result,
         stats=stats,
-        y1=y1,
-        steps=steps,
+        y1=merged.y1,
+        steps=stats["num_steps"],
         accepted_steps=stats["num_accepted_steps"],
         steps_executed=executed,
-        waste=executed / jnp.sum(steps),
+        waste=executed / jnp.sum(stats["num_steps"]),
         predicted_steps=None if predicted is None else jnp.asarray(predicted),
         groups=tuple(tuple(int(i) for i in g) for g in groups),
         batch_sizes=tuple(sizes),

@@ -3,8 +3,13 @@
     .venv/bin/python notebooks/_make_03_stability.py
 
 The notebook runs the stability map of ``benchmarks/stability.py`` (small with
-``JAXCHAIN_FAST=1``, as the test suite sets it) and shows its chart; outputs are not
-stored (the test suite executes it).
+``JAXCHAIN_FAST=1``, as the test suite sets it) and shows its chart. This script writes it
+without outputs;
+
+    .venv/bin/python notebooks/_make_all.py --execute
+
+regenerates all four notebooks and executes them in full mode, storing the outputs (the
+form they are committed in).
 """
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
@@ -128,7 +133,7 @@ Image(buf.getvalue())"""
 
 
 def main():
-    write(CELLS, "03_stability.ipynb")
+    return write(CELLS, "03_stability.ipynb")
 
 
 if __name__ == "__main__":

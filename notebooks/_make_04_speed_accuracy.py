@@ -5,7 +5,12 @@
 The notebook charts the measured speed–accuracy studies (``benchmarks/results/``:
 work_precision, regularization, scipy_engagement), runs a small live work–precision sweep
 (short with ``JAXCHAIN_FAST=1``, as the test suite sets it) and ends with a guidance table
-computed from those results; outputs are not stored (the test suite executes it).
+computed from those results. This script writes it without outputs;
+
+    .venv/bin/python notebooks/_make_all.py --execute
+
+regenerates all four notebooks and executes them in full mode, storing the outputs (the
+form they are committed in).
 """
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
@@ -252,11 +257,11 @@ a user gets; the largest fixed step that stays *stable* and the largest that sta
 
 Same study, second part. Lumped (rollers as point masses on elastic links) against the
 source paper's clearance model (rigid pin and roller links, pin/bush and bush/roller
-clearance joints), both started from the layout (measured before the clearance statics
-settled; the settled comparison follows) with soft span springs so that the tight span carries its 1000 N from the start,
-peaks over the later engagements. Each fidelity runs a small ensemble (speed perturbed by
-±0.1 %) and its nominal member again at tighter tolerances: a difference between the
-fidelities means something only against that spread."""
+clearance joints), both started from the layout (the comparison from settled starts
+follows) with soft span springs so that the tight span carries its 1000 N from the
+start, peaks over the later engagements. Each fidelity runs a small ensemble (speed
+perturbed by ±0.1 %) and its nominal member again at tighter tolerances: a difference
+between the fidelities means something only against that spread."""
     ),
     new_code_cell(
         """if reg is not None:
@@ -304,14 +309,13 @@ fidelities means something only against that spread."""
     new_markdown_cell(
         """### From settled starts
 
-Now that the clearance statics settles (dynamic relaxation), `python -m benchmarks.fidelity`
-compares three variants each from its own static equilibrium, with the default span
-springs: lumped, clearance (rollers on their own bush joints, the source paper's model)
-and clearance with each roller fixed to its bush. Statistics are over engagements: the
-peak of each tooth period of each member of a ±0.1 % speed ensemble. Read the dots, not
-only the means: the lumped and the fixed-roller strands repeat the same engagement
-sequence at every speed (the spread is between engagements), the rollers on joints
-scatter with the speed (each roller rattles in two free plays)."""
+`python -m benchmarks.fidelity` compares three variants, each started from its own static
+equilibrium, with the default span springs: lumped, clearance (rollers on their own bush
+joints, the source paper's model) and clearance with each roller fixed to its bush.
+Statistics are over engagements: the peak of each tooth period of each member of a ±0.1 %
+speed ensemble. Read the dots, not only the means: the lumped and the fixed-roller strands
+repeat the same engagement sequence at every speed (the spread is between engagements),
+the rollers on joints scatter with the speed (each roller rattles in two free plays)."""
     ),
     new_code_cell(
         """fd = load("fidelity")
@@ -533,7 +537,7 @@ display(Markdown(table))"""
 
 
 def main():
-    write(CELLS, "04_speed_accuracy.ipynb")
+    return write(CELLS, "04_speed_accuracy.ipynb")
 
 
 if __name__ == "__main__":

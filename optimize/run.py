@@ -51,11 +51,11 @@ def save_figure(fig, path: Path) -> None:
     os.replace(tmp, path)
 
 
-def _jsonable(x):
+def jsonable(x):
     if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items() if not isinstance(v, np.ndarray)}
+        return {k: jsonable(v) for k, v in x.items() if not isinstance(v, np.ndarray)}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
+        return [jsonable(v) for v in x]
     if isinstance(x, (np.floating, np.integer)):
         return x.item()
     if isinstance(x, float) and not math.isfinite(x):
@@ -270,7 +270,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
             m = remeasure(problem, prof, law=law)
             checks.setdefault(name, {})[law] = {
                 "peak_N": m["peak_N"],
-                "members": [_jsonable(r) for r in m["members"]],
+                "members": [jsonable(r) for r in m["members"]],
             }
             if law == "johnson":
                 traces[name] = m["members"][0]
@@ -318,7 +318,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "gradient_free": nm,
         "timing": timing,
     }
-    write_atomic(out / RESULTS, json.dumps(_jsonable(results), indent=1))
+    write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
     figures(problem, out, forms, optimized, better, history, nm, traces)
     log(summary(results), quiet)
     return results
@@ -326,8 +326,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
 
 def failures(members) -> list[str]:
     """Messages of the ensemble members whose solve did not succeed ("" for those that did)."""
-    codes = np.atleast_1d(np.asarray(members.result._value))
-    return [jc.Result._index_to_message[int(c)] for c in codes]
+    return jc.result_messages(members.result)
 
 
 def gradient_free(problem: Problem, target: float, budget: int, quiet: bool) -> dict:

@@ -1,11 +1,19 @@
-"""Test configuration: float64 everywhere (the library itself never flips JAX config)."""
+"""Test configuration: float64 everywhere (the library itself never flips JAX config), and
+a persistent compilation cache in the repository (``.jax_cache/``), shared by the test
+workers, the notebooks they execute and the main job's runs."""
 
 import os
+from pathlib import Path
 
 import jax
 
+CACHE = Path(__file__).resolve().parents[1] / ".jax_cache"
+os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(CACHE))  # notebook kernels inherit it
+
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_platforms", "cpu")
+jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
 
 import hypothesis  # noqa: E402
 

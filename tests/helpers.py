@@ -46,7 +46,8 @@ def count_calls(monkeypatch, module, name):
 
 
 def count_vector_field_calls(monkeypatch):
-    """A list that grows by one each time ``simulate`` traces (calls) the vector field."""
-    import jaxchain._simulate as S
+    """A list that grows by one each time the one solve (``simulate``, ensembles, design
+    objectives) traces (calls) the drive's forces in its vector field."""
+    import jaxchain._solve as S
 
-    return count_calls(monkeypatch, S, "vector_field")
+    return count_calls(monkeypatch, S, "forces")

@@ -264,7 +264,7 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     parabolas 0.12 % above (the pulse is lopsided), the step ends alone 5 % below."""
     dt, n = 4.1e-6, 1000
     fixed = dict(solver=diffrax.Tsit5(), stepsize_controller=diffrax.ConstantStepSize(), dt0=dt)
-    k = jc._simulate.PEAK_SAMPLES
+    k = jc.observers.PeakRecord().samples
     # saving at the samples' own times adds only values the step tops already bound
     quarter = jc.simulate(engagement18, n * dt, ts=dt * np.arange(k * n + 1) / k, **fixed)
     f = np.asarray(quarter.roller_sprocket_force)  # (k n + 1, R)

@@ -268,3 +268,42 @@ def test_gradient_over_two_tooth_periods_is_finite(scene, record_property):
     record_property("grad_norm_N", norm)
     print(f"soft peak {float(value):.1f} N, ∂P/∂u = {g}, |∂P/∂u| = {norm:.4g} N")
     assert np.all(np.isfinite(g)) and norm > 0
+
+
+# ------------------------------------------------------- one classification, every path
+def _modes(scene):
+    """(name, scene, solve options, expected result) of every failure mode above that runs
+    in the default suite, and the nominal success."""
+    euler_opts = dict(
+        solver=diffrax.Euler(),
+        stepsize_controller=diffrax.ConstantStepSize(),
+        max_steps=EULER_STEPS,
+    )
+    slow_damping = eqx.tree_at(
+        lambda s: s.impact_speed, with_law(scene, speed_floor=1e-5), jnp.asarray(1e-5)
+    )
+    return [
+        ("nominal", scene, dict(max_steps=BUDGET), jc.Result.successful),
+        ("fixed step above the limit", scene, dict(euler_opts, dt0=4e-6), jc.Result.diverged),
+        ("blow-up still growing", scene, dict(euler_opts, dt0=7.3e-7), jc.Result.diverged),
+        ("fixed step below the limit", scene, dict(euler_opts, dt0=2e-7), jc.Result.successful),
+        ("stiffness starves", stiffened(scene, 100.0), dict(max_steps=BUDGET), None),
+        ("damping floor too small", slow_damping, dict(max_steps=BUDGET), None),
+    ]
+
+
+def test_simulate_and_the_design_objective_report_every_failure_identically(scene):
+    """``simulate`` and the design objective's solve (``design.soft_peak_force``) run the
+    one solve path with its one classification: on the same scene and options every
+    failure mode comes back as the same result code (and a failed design solve never as
+    a plausible number: its result says so)."""
+    seen = {}
+    for name, sc, opts, expected in _modes(scene):
+        sim = jc.simulate(sc, T1, n_save=41, throw=False, **opts)
+        des = jc.design.soft_peak_force(sc, T1, temperature=50.0, reference=2000.0, **opts)
+        seen[name] = (sim.result_name, jc.result_names(des.result)[0])
+        assert sim.result == des.result, (name, seen[name])
+        if expected is not None:
+            assert sim.result == expected, (name, seen[name], sim.message)
+    assert seen["stiffness starves"][0] == "max_steps_reached", seen
+    assert seen["damping floor too small"][0] == "max_steps_reached", seen

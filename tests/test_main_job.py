@@ -8,7 +8,6 @@ import pytest
 import jaxchain as jc
 from jaxchain._design import ProfileObjective
 from optimize.__main__ import main, parse
-from optimize.demo import run as demo_run
 
 
 def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
@@ -75,10 +74,3 @@ def test_bad_options_are_explained():
         main(["--optimizer", "nonsense", "--quiet"])
     s, _ = parse(["--ensemble", "0.9,1,1.1"])
     assert s.ensemble == (0.9, 1.0, 1.1)
-
-
-def test_foundation_demo_still_runs(tmp_path):
-    res = demo_run(tmp_path, "08B", 18, 0.5)
-    e_star = jc.contact.hysteresis_restitution(1.6 * (1 - 0.8) / 0.8)
-    for case in res["seat_impact"].values():
-        assert abs(case["rebound_ratio"] - e_star) < 2e-3

@@ -2,13 +2,12 @@
 brute-force maximum; continuous where its two forms meet, finite gradients everywhere,
 NaN kept; the recorder's sample count checked."""
 
-import diffrax
 import jax
 import numpy as np
 import pytest
 
 from jaxchain._numerics import parabola_max
-from jaxchain._simulate import PeakRecorder
+from jaxchain.observers import PeakRecord
 
 from helpers import brute_parabola_max
 
@@ -87,8 +86,8 @@ def test_nan_in_any_sample_is_kept():
         assert np.isnan(parabola_max(*f))
 
 
-def test_peak_recorder_needs_a_start_an_interior_and_an_end_sample():
-    assert PeakRecorder(diffrax.Tsit5(), samples=2).samples == 2
+def test_peak_record_needs_a_start_an_interior_and_an_end_sample():
+    assert PeakRecord(samples=2).samples == 2
     for bad in (1, 0, 2.0):
         with pytest.raises(ValueError, match="samples must be an int >= 2"):
-            PeakRecorder(diffrax.Tsit5(), samples=bad)
+            PeakRecord(samples=bad)

@@ -12,7 +12,13 @@ from jaxtyping import Array, ArrayLike
 
 from .._numerics import is_concrete, safe_pow, smooth_ramp
 
-__all__ = ["AbstractContactLaw", "AbstractHysteresisLaw", "hysteresis_restitution", "check_fields"]
+__all__ = [
+    "AbstractContactLaw",
+    "AbstractHysteresisLaw",
+    "AbstractPointLaw",
+    "hysteresis_restitution",
+    "check_fields",
+]
 
 
 def check_fields(module, checks) -> None:
@@ -40,25 +46,70 @@ class AbstractContactLaw(eqx.Module):
 
 
 class AbstractHysteresisLaw(AbstractContactLaw):
-    """F = K·δᵣⁿ·ramp(1 + χ(e)·δ̇/v⁻), the hysteresis-damping family.
+    """F = F_el(δᵣ)·ramp(1 + χ(e)·δ̇/v⁻): an elastic law with hysteresis damping.
 
-    Concrete laws differ only in the damping factor χ(e). δᵣ = smooth_ramp(δ, width) is
-    the penetration regularization (C¹; exact for |δ| ≥ width, over-reports δ by at most
-    width/4 at δ = 0, force onset at δ = −width). v⁻ is floored smoothly,
-    v⁻ → √(v⁻² + speed_floor²), so resting contact (v⁻ → 0) stays finite. The bracket is
-    clamped at zero by a C¹ ramp of half-width ``clamp_width`` so the force never pulls.
+    A concrete law gives the elastic part F_el (``elastic_force``) and the damping factor
+    χ(e) (``damping_factor``); the damping, regularization and clamp are written here
+    once. δᵣ = smooth_ramp(δ, width) is the penetration regularization (C¹; exact for
+    |δ| ≥ width, over-reports δ by at most width/4 at δ = 0, force onset at δ = −width).
+    v⁻ is floored smoothly, v⁻ → √(v⁻² + speed_floor²), so resting contact (v⁻ → 0)
+    stays finite. The bracket is clamped at zero by a C¹ ramp of half-width
+    ``clamp_width`` so the force never pulls.
 
     With F = F_el(δ)·(1 + χ·δ̇/v⁻), m·δ̈ = −F integrates in closed form over a whole
     impact, whatever F_el is: the coefficient of restitution e* solves
     1 − χe* = (1 + χ)·exp(−χ(1 + e*)) (see :func:`hysteresis_restitution`).
 
-    Attributes:
-        stiffness: K [N/mⁿ].
-        exponent: n [-] (1.5 for Hertz point contact).
+    Fields every concrete law has (declared there, so each keeps its own defaults and
+    field order):
         restitution: e ∈ (0, 1], the coefficient the law is meant to reproduce.
         width: penetration regularization half-width [m] (0: none).
         speed_floor: smallest impact speed used in the damping ratio [m/s].
         clamp_width: half-width of the no-pull clamp on the bracket [-].
+    """
+
+    def __check_init__(self):
+        if not is_concrete(self):
+            return
+        check_fields(
+            self,
+            [
+                ("restitution", lambda v: (v > 0.0) & (v <= 1.0), "in (0, 1]"),
+                ("width", lambda v: v >= 0, ">= 0 m"),
+                ("speed_floor", lambda v: v > 0, "> 0 m/s"),
+                ("clamp_width", lambda v: (v >= 0) & (v <= 1), "in [0, 1]"),
+            ],
+        )
+
+    @abc.abstractmethod
+    def elastic_force(self, depth: ArrayLike) -> Array:
+        """F_el on the regularized depth [N]."""
+
+    @abc.abstractmethod
+    def damping_factor(self) -> Array:
+        """χ(e) [-] of the law."""
+
+    def normal_force(self, depth, depth_rate, impact_speed):
+        v0 = jnp.sqrt(jnp.asarray(impact_speed) ** 2 + self.speed_floor**2)
+        bracket = 1.0 + self.damping_factor() * jnp.asarray(depth_rate) / v0
+        return self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
+
+    def effective_restitution(self) -> float:
+        """Coefficient of restitution this law actually produces in an isolated impact
+        (closed form, independent of the elastic law and the mass; ignores the no-pull
+        clamp)."""
+        return hysteresis_restitution(float(self.damping_factor()))
+
+
+class AbstractPointLaw(AbstractHysteresisLaw):
+    """F_el = K·δᵣⁿ (Hertz-type point or line contact), hysteresis-damped; concrete laws
+    differ only in the damping factor χ(e), their static ``chi``.
+
+    Attributes:
+        stiffness: K [N/mⁿ].
+        exponent: n [-] (1.5 for Hertz point contact).
+        restitution, width, speed_floor, clamp_width: see
+            :class:`AbstractHysteresisLaw`.
     """
 
     stiffness: ArrayLike
@@ -71,33 +122,25 @@ class AbstractHysteresisLaw(AbstractContactLaw):
     def __check_init__(self):
         if not is_concrete(self):
             return
-        checks = [
-            ("stiffness", lambda v: v > 0, "> 0"),
-            ("exponent", lambda v: (v >= 1.0) & (v <= 3.0), "in [1, 3]"),
-            ("restitution", lambda v: (v > 0.0) & (v <= 1.0), "in (0, 1]"),
-            ("width", lambda v: v >= 0, ">= 0 m"),
-            ("speed_floor", lambda v: v > 0, "> 0 m/s"),
-            ("clamp_width", lambda v: (v >= 0) & (v <= 1), "in [0, 1]"),
-        ]
-        check_fields(self, checks)
+        check_fields(
+            self,
+            [
+                ("stiffness", lambda v: v > 0, "> 0"),
+                ("exponent", lambda v: (v >= 1.0) & (v <= 3.0), "in [1, 3]"),
+            ],
+        )
 
+    @staticmethod
     @abc.abstractmethod
+    def chi(restitution: ArrayLike) -> Array:
+        """χ(e) of the law's damping family (also used by name by JohnsonCylinder)."""
+
     def damping_factor(self) -> Array:
-        """χ(e) [-] of the law."""
+        return self.chi(jnp.asarray(self.restitution))
 
     def elastic_force(self, depth: ArrayLike) -> Array:
         """K·δᵣⁿ [N]."""
         return self.stiffness * safe_pow(smooth_ramp(depth, self.width), self.exponent)
-
-    def normal_force(self, depth, depth_rate, impact_speed):
-        v0 = jnp.sqrt(jnp.asarray(impact_speed) ** 2 + self.speed_floor**2)
-        bracket = 1.0 + self.damping_factor() * jnp.asarray(depth_rate) / v0
-        return self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
-
-    def effective_restitution(self) -> float:
-        """Coefficient of restitution this law actually produces in an isolated impact
-        (closed form, independent of K, n and mass; ignores the no-pull clamp)."""
-        return hysteresis_restitution(float(self.damping_factor()))
 
 
 def hysteresis_restitution(chi: float) -> float:

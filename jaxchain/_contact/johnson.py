@@ -10,15 +10,20 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from .._numerics import is_concrete, smooth_ramp
-from .base import AbstractContactLaw, check_fields
+from .base import AbstractHysteresisLaw, check_fields
+from .flores import Flores
+from .gonthier import Gonthier
+from .hunt_crossley import HuntCrossley
+from .lankarani_nikravesh import LankaraniNikravesh
 
 __all__ = ["JohnsonCylinder", "johnson_dimensionless_force"]
 
+# the damping families JohnsonCylinder takes by name: each point law's own χ(e)
 _DAMPING = {
-    "lankarani-nikravesh": lambda e: 0.75 * (1 - e**2),
-    "hunt-crossley": lambda e: 1.5 * (1 - e),
-    "flores": lambda e: 1.6 * (1 - e) / e,
-    "gonthier": lambda e: (1 - e**2) / e,
+    "lankarani-nikravesh": LankaraniNikravesh,
+    "hunt-crossley": HuntCrossley,
+    "flores": Flores,
+    "gonthier": Gonthier,
 }
 
 # Johnson (1985): δ = F/(πLE*)·[ln(4πLE*ΔR/F) − 1]. In s = F/(πLE*ΔR), y = δ/ΔR:
@@ -72,7 +77,7 @@ def johnson_dimensionless_force(y: ArrayLike) -> Array:
     return jnp.where(inside, _johnson_s(jnp.where(inside, y, _Y_C)), _S_C + (y - _Y_C) / _GP_C)
 
 
-class JohnsonCylinder(AbstractContactLaw):
+class JohnsonCylinder(AbstractHysteresisLaw):
     """Johnson's internal-cylinder law with hysteresis damping, for conformal pairs.
 
     Elastic part (Johnson, *Contact Mechanics*, 1985): a cylinder of radius R in a hole of
@@ -85,9 +90,8 @@ class JohnsonCylinder(AbstractContactLaw):
     continued linearly with the slope there (C¹). Unlike Hertz δ^1.5 with
     R* = R(R+ΔR)/ΔR, its stiffness does not blow up as ΔR → 0.
 
-    Damping: F·ramp(1 + χ(e)·δ̇/v⁻) with χ from the chosen ``damping`` family
-    ("flores" by default: valid over the whole range of e). Penetration
-    regularization, speed floor and no-pull clamp as in
+    Damping: the χ(e) of the point law named by ``damping`` ("flores" by default: valid
+    over the whole range of e); regularization, speed floor and no-pull clamp as in
     :class:`~jaxchain.contact.AbstractHysteresisLaw`.
 
     Attributes:
@@ -96,6 +100,7 @@ class JohnsonCylinder(AbstractContactLaw):
         modulus: E*, contact modulus [Pa] (see :func:`jaxchain.effective_modulus`).
         restitution: e ∈ (0, 1].
         damping: "flores" | "gonthier" | "lankarani-nikravesh" | "hunt-crossley" (static).
+        width, speed_floor, clamp_width: see :class:`AbstractHysteresisLaw`.
     """
 
     clearance: ArrayLike
@@ -118,22 +123,30 @@ class JohnsonCylinder(AbstractContactLaw):
                 ("clearance", lambda v: v > 0, "> 0 m"),
                 ("length", lambda v: v > 0, "> 0 m"),
                 ("modulus", lambda v: v > 0, "> 0 Pa"),
-                ("restitution", lambda v: (v > 0) & (v <= 1), "in (0, 1]"),
-                ("width", lambda v: v >= 0, ">= 0 m"),
-                ("speed_floor", lambda v: v > 0, "> 0 m/s"),
             ],
         )
 
     def damping_factor(self) -> Array:
-        return _DAMPING[self.damping](jnp.asarray(self.restitution))
+        return _DAMPING[self.damping].chi(jnp.asarray(self.restitution))
+
+    @property
+    def _scale(self):
+        """πLE*ΔR [N]: the force unit of the dimensionless law."""
+        return jnp.pi * self.length * self.modulus * self.clearance
 
     def elastic_force(self, depth: ArrayLike) -> Array:
         """Johnson's F(δ) [N] on the regularized depth."""
         y = smooth_ramp(depth, self.width) / self.clearance
-        scale = jnp.pi * self.length * self.modulus * self.clearance
-        return scale * johnson_dimensionless_force(y)
+        return self._scale * johnson_dimensionless_force(y)
 
-    def normal_force(self, depth, depth_rate, impact_speed):
-        v0 = jnp.sqrt(jnp.asarray(impact_speed) ** 2 + self.speed_floor**2)
-        bracket = 1.0 + self.damping_factor() * jnp.asarray(depth_rate) / v0
-        return self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
+    def deflection(self, force: ArrayLike) -> Array:
+        """Johnson's δ(F) = F/(πLE*)·[ln(4πLE*ΔR/F) − 1] [m] (explicit; 0 for F ≤ 0),
+        the inverse of ``elastic_force`` (unregularized) within the theory's range."""
+        s = jnp.asarray(force) / self._scale
+        pos = s > 0
+        return jnp.where(pos, self.clearance * _g(jnp.where(pos, s, 1.0)), 0.0)
+
+    def tangent_stiffness(self, force: ArrayLike) -> Array:
+        """dF/dδ at ``force`` > 0 [N/m]: πLE*/g'(s), g'(s) = ln(4/s) − 2."""
+        s = jnp.asarray(force) / self._scale
+        return jnp.pi * self.length * self.modulus / (jnp.log(4.0 / s) - 2.0)

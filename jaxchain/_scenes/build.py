@@ -33,7 +33,6 @@ __all__ = [
     "joint_law",
     "roller_law",
     "link_stiffness",
-    "johnson_deflection",
 ]
 
 
@@ -48,21 +47,16 @@ class ChainBodies(NamedTuple):
     link_weights: np.ndarray
 
 
-def johnson_deflection(force: float, clearance: float, length: float, modulus: float) -> float:
-    """Johnson's δ(F) = F/(πLE*)·[ln(4πLE*ΔR/F) − 1] [m] (explicit direction)."""
-    if force <= 0:
-        return 0.0
-    s = force / (math.pi * length * modulus * clearance)
-    return clearance * s * (math.log(4 / s) - 1)
-
-
 def joint_law(
     chain: ChainSpec,
     which: Literal["pin", "roller"],
     restitution: float,
     material: Material = STEEL,
+    *,
+    width: float | None = None,
 ) -> JohnsonCylinder:
-    """Johnson's conformal law for the pin/bush (``"pin"``) or bush/roller pair."""
+    """Johnson's conformal law for the pin/bush (``"pin"``) or bush/roller pair;
+    ``width``: its contact-onset regularization half-width [m] (default the law's)."""
     estar = effective_modulus(material, material)
     if which == "pin":
         clearance, length = chain.pin_clearance, chain.inner_width + 2 * chain.plate_thickness
@@ -73,10 +67,25 @@ def joint_law(
         length=jnp.asarray(length),
         modulus=jnp.asarray(estar),
         restitution=jnp.asarray(restitution),
+        **_width(width),
     )
 
 
-def roller_law(chain: ChainSpec, restitution: float, material: Material = STEEL) -> JohnsonCylinder:
+def _width(width: float | None) -> dict:
+    if width is None:
+        return {}
+    if not (np.isfinite(width) and width >= 0):
+        raise ValueError(f"width must be a finite onset half-width >= 0 m, got {width}")
+    return {"width": jnp.asarray(width, dtype=float)}
+
+
+def roller_law(
+    chain: ChainSpec,
+    restitution: float,
+    material: Material = STEEL,
+    *,
+    width: float | None = None,
+) -> JohnsonCylinder:
     """Default roller/tooth law: Johnson's cylinder law with a fixed effective clearance,
     the ISO 606 mid seat clearance of this chain (0.005·d1 + 0.0345·∛d1, independent of
     z and of the profile being designed, so the law never changes with the design).
@@ -86,6 +95,9 @@ def roller_law(chain: ChainSpec, restitution: float, material: Material = STEEL)
     flank the line-contact approach has the same F·[ln(C/F) − 1] form (Johnson §5.6) with
     a different constant C, so the error there is logarithmic, not a stiffness that
     swings with the clearance as Hertz δ^1.5 with R* = r·ri/(ri − r) would.
+
+    ``width``: the contact-onset regularization half-width [m] (default the law's 10 nm;
+    a design model may resolve the onset over a few µm, see ``python -m optimize``).
     """
     d1 = chain.roller_diameter
     clearance = 0.005 * d1 + 0.0345e-3 * (1e3 * d1) ** (1 / 3)
@@ -94,6 +106,7 @@ def roller_law(chain: ChainSpec, restitution: float, material: Material = STEEL)
         length=jnp.asarray(0.95 * chain.inner_width),
         modulus=jnp.asarray(effective_modulus(material, material)),
         restitution=jnp.asarray(restitution),
+        **_width(width),
     )
 
 
@@ -105,10 +118,7 @@ def link_stiffness(chain: ChainSpec, load: float, material: Material = STEEL) ->
     hole = chain.bush_diameter
     k_plates = e * 2 * chain.plate_thickness * (chain.plate_height - hole) / chain.pitch
     law = joint_law(chain, "pin", 1.0, material)
-    load = max(load, 0.05 * chain.tensile_strength)
-    length, modulus = float(law.length), float(law.modulus)
-    s = load / (math.pi * length * modulus * float(law.clearance))
-    k_joint = math.pi * length * modulus / (math.log(4 / s) - 2)  # dF/dδ = πLE*/g'(s)
+    k_joint = float(law.tangent_stiffness(max(load, 0.05 * chain.tensile_strength)))
     return 1.0 / (1.0 / k_plates + 2.0 / k_joint)
 
 

@@ -14,7 +14,7 @@ from .._contact.friction import CoulombFriction
 from .._profile import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
-from .drive import _check_positive, _slots, _stretch, disc_inertia, resolve_chain
+from .common import check_positive, contact_slots, disc_inertia, resolve_chain, stretch_of
 from .layout import strand_layout
 from .statics import equilibrate
 
@@ -58,8 +58,8 @@ def engagement(
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = resolve_chain(chain)
-    _check_positive("speed_rpm", speed_rpm, "rpm (the sprocket must turn)")
-    _check_positive("tension", tension, "N (a slack entry span does not mesh)")
+    check_positive("speed_rpm", speed_rpm, "rpm (the sprocket must turn)")
+    check_positive("tension", tension, "N (a slack entry span does not mesh)")
     if slack_tension < 0:
         raise ValueError(f"slack_tension must be >= 0 N, got {slack_tension}")
     if profile is None:
@@ -76,7 +76,7 @@ def engagement(
         wrap=wrap,
         n_entry=n_entry,
         n_exit=n_exit,
-        link_pitch=chain.pitch + _stretch(chain, fidelity, tension),
+        link_pitch=chain.pitch + stretch_of(chain, fidelity, tension),
     )
     omega = speed_rpm * 2 * math.pi / 60
     rollers = np.asarray(lay.rollers)
@@ -90,8 +90,8 @@ def engagement(
     # at the unstretched speed would lag by the stretch every tooth period and its spring
     # would pull the span's tension up by span_stiffness·stretch per period.
     rate = omega * teeth / (2 * math.pi)
-    v_entry = rate * (chain.pitch + _stretch(chain, fidelity, tension))
-    v_exit = rate * (chain.pitch + _stretch(chain, fidelity, slack_tension))
+    v_entry = rate * (chain.pitch + stretch_of(chain, fidelity, tension))
+    v_exit = rate * (chain.pitch + stretch_of(chain, fidelity, slack_tension))
     first, last = np.nonzero(seated)[0][[0, -1]]
     entry_dir, exit_dir = np.asarray(lay.entry_dir), np.asarray(lay.exit_dir)
     vel[:first] = -v_entry * entry_dir
@@ -125,7 +125,7 @@ def engagement(
         omega,
         angle0=lay.theta,
         inertia=disc_inertia(chain, profile),
-        contact_slots=_slots(wrap, len(rollers)),
+        contact_slots=contact_slots(wrap, len(rollers)),
     )
     scene = assemble(
         bodies,

@@ -1,0 +1,172 @@
+"""``SolveOptions``: how every solve in jaxchain steps, controls its error and differentiates
+(one object shared by ``simulate``, ``simulate_ensemble`` and the design objectives)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, ArrayLike
+
+from ._numerics import is_concrete
+
+__all__ = ["SolveOptions", "Resolved", "with_options"]
+
+
+class Resolved(NamedTuple):
+    """Options turned into what ``diffrax.diffeqsolve`` takes (arrays where a new value must
+    not recompile)."""
+
+    solver: diffrax.AbstractSolver
+    controller: diffrax.AbstractStepSizeController
+    dt0: Array | None
+    max_steps: int
+    adjoint: diffrax.AbstractAdjoint
+    meter: diffrax.AbstractProgressMeter
+
+
+class SolveOptions(eqx.Module):
+    """How a solve steps, controls its error and differentiates.
+
+    Attributes:
+        solver: any diffrax solver (default ``diffrax.Tsit5()``). An IMEX solver
+            (``KenCarp*``, ``Sil3``) takes the whole vector field as its implicit term.
+        rtol, atol: tolerances of the default PID step-size controller, which measures the
+            error in the max norm (a single contact's error is not averaged away).
+        dt0: initial step [s]; with ``stepsize_controller=diffrax.ConstantStepSize()`` the
+            fixed step (scalar, or per member in ``simulate_ensemble``).
+        dt: fixed steps of about ``dt`` [s]: ⌈(t1 − t0)/dt⌉ equal steps, every one
+            checkpointed for gradients (the exact discrete gradient, nothing recomputed;
+            memory = steps × state). The step count is part of the compiled solve.
+        max_steps: step budget (static).
+        stepsize_controller: overrides the default controller.
+        adjoint: diffrax adjoint for gradients (default: recursive checkpointing with
+            diffrax's ≈ √(2·max_steps) checkpoints, which differentiates the discrete solve
+            exactly). For a fixed-step gradient whose states fit in memory, checkpoint every
+            step (``dt``, or ``diffrax.RecursiveCheckpointAdjoint(checkpoints=n_steps)``):
+            value+gradient 3.6–4.4× the value on the ensemble benchmark, against 4.2–4.9×
+            with the default.
+        progress: show a progress meter (tqdm if installed, else text).
+    """
+
+    solver: diffrax.AbstractSolver | None = None
+    rtol: float = 1e-6
+    atol: float = 1e-9
+    dt0: ArrayLike | None = None
+    dt: float | None = None
+    max_steps: int = 200_000
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None
+    adjoint: diffrax.AbstractAdjoint | None = None
+    progress: bool = False
+
+    def __check_init__(self):
+        if self.solver is not None and not isinstance(self.solver, diffrax.AbstractSolver):
+            raise TypeError(f"solver must be a diffrax solver, got {self.solver!r}")
+        c = self.stepsize_controller
+        if c is not None and not isinstance(c, diffrax.AbstractStepSizeController):
+            raise TypeError(f"stepsize_controller must be a diffrax controller, got {c!r}")
+        if self.adjoint is not None and not isinstance(self.adjoint, diffrax.AbstractAdjoint):
+            raise TypeError(f"adjoint must be a diffrax adjoint, got {self.adjoint!r}")
+        if not isinstance(self.max_steps, (int, np.integer)) or isinstance(self.max_steps, bool):
+            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
+        if self.max_steps < 1:
+            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
+        if is_concrete(self.rtol, self.atol):
+            for name in ("rtol", "atol"):
+                v = np.asarray(getattr(self, name), dtype=float)
+                if not (v.shape == () and np.isfinite(v) and v > 0):
+                    raise ValueError(f"{name} must be a finite number > 0, got {v}")
+        if self.dt0 is not None and is_concrete(self.dt0):
+            v = np.asarray(self.dt0, dtype=float)
+            if not np.all(np.isfinite(v) & (v > 0)):
+                raise ValueError(f"dt0 must be finite and > 0 s, got {self.dt0}")
+        if self.dt is not None:
+            if not (isinstance(self.dt, (int, float, np.floating)) and math.isfinite(self.dt)):
+                raise ValueError(f"dt must be a finite number of seconds > 0, got {self.dt!r}")
+            if not self.dt > 0:
+                raise ValueError(f"dt must be > 0 s, got {self.dt}")
+            if self.dt0 is not None or self.stepsize_controller is not None:
+                raise ValueError(
+                    "give dt (fixed steps) or dt0/stepsize_controller, not both: dt sets the "
+                    "step count and the constant step-size controller itself"
+                )
+        if isinstance(c, diffrax.ConstantStepSize) and self.dt0 is None:
+            raise ValueError("a fixed step (ConstantStepSize) needs dt0 > 0 [s] (or use dt=)")
+        if not isinstance(self.progress, bool):
+            raise TypeError(f"progress must be True or False, got {self.progress!r}")
+
+    @property
+    def fixed(self) -> bool:
+        """Whether the steps are fixed (``dt``, or a constant step-size controller)."""
+        return self.dt is not None or isinstance(self.stepsize_controller, diffrax.ConstantStepSize)
+
+    def steps(self, t0: float, t1: float) -> int:
+        """Number of fixed steps ``dt`` gives over [t0, t1] (static)."""
+        return max(1, math.ceil((float(t1) - float(t0)) / self.dt - 1e-9))
+
+    def resolve(self, t0: ArrayLike, t1: ArrayLike) -> Resolved:
+        """What ``diffeqsolve`` takes over [t0, t1] (concrete values when ``dt`` is set:
+        the step count fixes the compiled loop)."""
+        solver = diffrax.Tsit5() if self.solver is None else self.solver
+        max_steps, adjoint = int(self.max_steps), self.adjoint
+        if self.dt is not None:
+            if not is_concrete(t0, t1):
+                raise ValueError("dt (fixed steps) needs a concrete time span: its step count")
+            n = self.steps(t0, t1)
+            controller, dt0, max_steps = diffrax.ConstantStepSize(), (t1 - t0) / n, n
+            adjoint = adjoint or diffrax.RecursiveCheckpointAdjoint(checkpoints=n)
+        else:
+            controller = self.stepsize_controller or diffrax.PIDController(
+                rtol=jnp.asarray(self.rtol, dtype=float),  # arrays: no recompile
+                atol=jnp.asarray(self.atol, dtype=float),
+                norm=optx.max_norm,
+                pcoeff=0.2,
+                icoeff=0.4,
+            )
+            dt0 = None if self.dt0 is None else jnp.asarray(self.dt0, dtype=float)
+        adjoint = adjoint or diffrax.RecursiveCheckpointAdjoint()
+        if self.progress:
+            try:
+                import tqdm  # noqa: F401
+
+                meter = diffrax.TqdmProgressMeter()
+            except ImportError:
+                meter = diffrax.TextProgressMeter()
+        else:
+            meter = diffrax.NoProgressMeter()
+        return Resolved(solver, controller, dt0, max_steps, adjoint, meter)
+
+
+_FIELDS = tuple(f.name for f in dataclasses.fields(SolveOptions))
+
+
+def with_options(options: SolveOptions | None, given: dict, caller: str) -> SolveOptions:
+    """``options`` (default ``SolveOptions()``) with the keyword options ``given`` replaced;
+    an unknown keyword raises ``TypeError`` listing the valid ones."""
+    unknown = sorted(set(given) - set(_FIELDS))
+    if unknown:
+        raise TypeError(
+            f"{caller}() got unexpected keyword argument(s) {unknown}; solve options are "
+            f"{list(_FIELDS)}"
+        )
+    if options is None:
+        return SolveOptions(**given)
+    if not isinstance(options, SolveOptions):
+        raise TypeError(f"options must be a jaxchain.SolveOptions, got {type(options).__name__}")
+    return dataclasses.replace(options, **given) if given else options
+
+
+def tree_strong(tree):
+    """Every inexact array leaf with a strong dtype: a weakly typed leaf
+    (``jnp.asarray(110.0)``) must not force a retrace."""
+    return jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
+        tree,
+    )

@@ -1,0 +1,215 @@
+"""The one solve: ``diffrax.diffeqsolve`` of the drive's vector field, with observers.
+
+``simulate``, ``simulate_ensemble`` and every design objective run :func:`solve`; they
+differ only in the observers they plug in and what they save. The solve also carries the
+:class:`~jaxchain._observers.Health` observer, and classifies every outcome with the one
+:func:`~jaxchain._result.classify`.
+"""
+
+from __future__ import annotations
+
+import typing
+import warnings
+from typing import Any, NamedTuple
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array
+
+from ._dynamics import DriveState, forces, initial_state, outputs, rates
+from ._observers import AbstractIntegralObserver, AbstractStepObserver, Health
+from ._options import Resolved, tree_strong
+from ._result import Result, classify
+from ._scene import Scene
+
+__all__ = ["solve", "Trajectory", "strong_scene"]
+
+
+class _Args(NamedTuple):
+    scene: Scene
+    integrals: tuple[AbstractIntegralObserver, ...]
+
+
+def _drive(state, args: _Args) -> DriveState:
+    """The drive's part of the ODE state: the state itself without integral observers
+    (diffrax takes no empty containers in a state), else its first entry."""
+    return state[0] if args.integrals else state
+
+
+def _field(t, state, args: _Args):
+    """dy/dt of the drive and of every integral observer, from one force evaluation."""
+    y = _drive(state, args)
+    fr = forces(t, y, args.scene)
+    dy = rates(t, y, args.scene, fr)
+    if not args.integrals:
+        return dy
+    return dy, tuple(o.integrand(t, y, args.scene, fr) for o in args.integrals)
+
+
+def _zero_field(t, state, args):
+    return jax.tree_util.tree_map(jnp.zeros_like, state)
+
+
+def _terms(solver: diffrax.AbstractSolver):
+    """The field as the solver's terms: an IMEX solver (``MultiTerm`` structure) takes it
+    whole as its implicit term."""
+    if typing.get_origin(solver.term_structure) is diffrax.MultiTerm:
+        return diffrax.MultiTerm(diffrax.ODETerm(_zero_field), diffrax.ODETerm(_field))
+    return diffrax.ODETerm(_field)
+
+
+class _Observed(diffrax.AbstractWrappedSolver):
+    """Wraps any diffrax solver; also advances the step observers on every accepted step
+    (their states ride in the solver state, which diffrax keeps for accepted steps only)."""
+
+    solver: diffrax.AbstractSolver
+    observers: tuple[AbstractStepObserver, ...]
+
+    @property
+    def term_structure(self):
+        return self.solver.term_structure
+
+    @property
+    def interpolation_cls(self):  # pyright: ignore
+        return self.solver.interpolation_cls
+
+    @property
+    def term_compatible_contr_kwargs(self):
+        return self.solver.term_compatible_contr_kwargs
+
+    @property
+    def root_finder(self):  # diffrax sets an implicit solver's tolerances through this
+        return self.solver.root_finder
+
+    @property
+    def scan_kind(self):  # ... and a Runge–Kutta solver's stage loop for forward mode
+        return self.solver.scan_kind
+
+    def order(self, terms):
+        return self.solver.order(terms)
+
+    def strong_order(self, terms):
+        return self.solver.strong_order(terms)
+
+    def error_order(self, terms):
+        return self.solver.error_order(terms)
+
+    def init(self, terms, t0, t1, y0, args):
+        states = tuple(o.init(t0, _drive(y0, args), args.scene) for o in self.observers)
+        return self.solver.init(terms, t0, t1, y0, args), states
+
+    def step(self, terms, t0, t1, y0, args, solver_state, made_jump):
+        inner, states = solver_state
+        y1, y_error, dense_info, inner, result = self.solver.step(
+            terms, t0, t1, y0, args, inner, made_jump
+        )
+        interp = self.solver.interpolation_cls(t0=t0, t1=t1, **dense_info)
+        dense = lambda ts: _drive(jax.vmap(interp.evaluate)(ts), args)
+        y0, y1d = _drive(y0, args), _drive(y1, args)
+        states = tuple(
+            o.step(t0, t1, y0, y1d, dense, args.scene, s)
+            for o, s in zip(self.observers, states, strict=True)
+        )
+        return y1, y_error, dense_info, (inner, states), result
+
+    def func(self, terms, t0, y0, args):
+        return self.solver.func(terms, t0, y0, args)
+
+
+class Trajectory(NamedTuple):
+    """What :func:`solve` returns."""
+
+    saved: dict[str, Array] | None  # outputs at the save times (jaxchain._dynamics.outputs)
+    y1: DriveState  # the state at t1
+    observed: tuple[Any, ...]  # each observer's value, in the order given
+    result: Result
+    stats: dict
+
+
+def _all_finite(tree) -> Array:
+    leaves = [jnp.all(jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(tree)]
+    return jnp.all(jnp.stack(leaves)) if leaves else jnp.asarray(True)
+
+
+@eqx.filter_jit
+def solve(
+    scene: Scene,
+    t0: Array,
+    t1: Array,
+    ts: Array | None,
+    resolved: Resolved,
+    observers: tuple[AbstractStepObserver | AbstractIntegralObserver, ...] = (),
+) -> Trajectory:
+    """Solve ``scene`` over [t0, t1] with the resolved options, saving the outputs at
+    ``ts`` (None: nothing saved) and carrying ``observers``.
+
+    The loop saves states only; the outputs (a second evaluation of the forces) are
+    computed from them after the solve, vmapped: inside the loop they would be traced,
+    linearized and transposed once more in every gradient (compile time).
+    """
+    steps = tuple(o for o in observers if isinstance(o, AbstractStepObserver))
+    integrals = tuple(o for o in observers if isinstance(o, AbstractIntegralObserver))
+    if len(steps) + len(integrals) != len(observers):
+        raise TypeError(f"observers must be step or integral observers, got {observers!r}")
+    y0 = initial_state(scene)
+    i0 = tuple(_zeros_of(o, t0, y0, scene) for o in integrals)
+    subs = [diffrax.SubSaveAt(t1=True)]
+    if ts is not None:
+        subs.insert(0, diffrax.SubSaveAt(ts=ts))
+    sol = diffrax.diffeqsolve(
+        _terms(resolved.solver),
+        _Observed(resolved.solver, (Health(), *steps)),
+        t0,
+        t1,
+        resolved.dt0,
+        (y0, i0) if integrals else y0,
+        args=_Args(scene, integrals),
+        saveat=diffrax.SaveAt(subs=subs, solver_state=True),
+        stepsize_controller=resolved.controller,
+        max_steps=resolved.max_steps,
+        adjoint=resolved.adjoint,
+        progress_meter=resolved.meter,
+        throw=False,
+    )
+    args = _Args(scene, integrals)
+    *saved_states, final = sol.ys
+    y1 = jax.tree_util.tree_map(lambda x: x[-1], _drive(final, args))
+    i1 = jax.tree_util.tree_map(lambda x: x[-1], final[1]) if integrals else ()
+    saved = None
+    if ts is not None:
+        ys = _drive(saved_states[0], args)
+        saved = jax.vmap(outputs, in_axes=(0, 0, None))(ts, ys, scene)
+    (healthy, slots_ok), *step_states = sol.solver_state[1]
+    observed = {}
+    for o, s in zip(steps, step_states, strict=True):
+        observed[id(o)] = o.value(s, t0, t1)
+    for o, s in zip(integrals, i1, strict=True):
+        observed[id(o)] = o.value(s, t0, t1)
+    observed = tuple(observed[id(o)] for o in observers)
+    result = classify(sol.result, healthy & _all_finite(observed), slots_ok)
+    stats = dict(sol.stats)
+    stats["diffrax_result"] = sol.result
+    return Trajectory(saved, y1, observed, result, stats)
+
+
+def _zeros_of(observer: AbstractIntegralObserver, t0, y0, scene):
+    shape = jax.eval_shape(lambda: observer.integrand(t0, y0, scene, forces(t0, y0, scene)))
+    return jnp.zeros(shape.shape, shape.dtype)
+
+
+def strong_scene(scene: Scene, caller: str) -> Scene:
+    """The scene with strong dtypes (no retrace for a weakly typed leaf); warns when it is
+    not float64."""
+    scene = tree_strong(scene)
+    if jnp.result_type(scene.q0) != jnp.float64:
+        warnings.warn(
+            f"{caller}: the scene is {jnp.result_type(scene.q0)} (jax_enable_x64 is off). "
+            "Positions of ~0.1 m are then resolved to ~1e-8 m, coarser than the default atol "
+            "and comparable to contact deflections: adaptive solves stall "
+            "(max_steps_reached). Call jax.config.update('jax_enable_x64', True) before "
+            "building the scene.",
+            stacklevel=3,
+        )
+    return scene

@@ -1,0 +1,161 @@
+"""Generate ``notebooks/02_tooth_optimization.ipynb`` (run from anywhere):
+
+    .venv/bin/python notebooks/_make_02_tooth_optimization.py
+
+The notebook shows, step by step, what ``python -m optimize`` runs: the ISO 606 design
+space, the smooth peak-force objective and its gradient, an optax loop (two iterations on
+one operating point with ``JAXCHAIN_FAST=1``, as the test suite sets it) and an independent
+re-measurement of the result. This script writes it without outputs;
+
+    .venv/bin/python notebooks/_make_all.py --execute
+
+regenerates all four notebooks and executes them in full mode, storing the outputs (the
+form they are committed in).
+"""
+
+from nbformat.v4 import new_code_cell, new_markdown_cell
+
+from _write import write
+
+CELLS = [
+    new_markdown_cell(
+        """# Designing a tooth profile by gradient descent
+
+The tooth-gap parameters (seating radius, seating angle, flank radius, tip diameter)
+are reshaped inside the ISO 606 limits to lower the peak roller/tooth contact force
+of a chain meshing with the sprocket. Gradients come from reverse-mode
+differentiation through the diffrax solve (and through the static equilibrium the
+scene starts from). This is what `python -m optimize` runs; here each step is shown.
+
+`JAXCHAIN_FAST=1` (set by the test suite) runs two iterations on one operating point."""
+    ),
+    new_code_cell(
+        """import os
+import jax
+
+jax.config.update("jax_enable_x64", True)  # jaxchain never changes JAX config itself
+import diffrax
+import jax.numpy as jnp
+import matplotlib.pyplot as plt
+import numpy as np
+import optax
+
+import jaxchain as jc
+from jaxchain.design import DesignSpace, ProfileObjective
+
+FAST = os.environ.get("JAXCHAIN_FAST") == "1"
+ITERATIONS = 2 if FAST else 15
+SPEEDS = (1.0,) if FAST else (0.9, 1.0, 1.1)"""
+    ),
+    new_markdown_cell(
+        """## 1. The design space
+`DesignSpace.iso606` maps an unconstrained coordinate `u ∈ ℝ⁴` smoothly into the
+standard's box (`x = lower + (upper − lower)·sigmoid(u)`): any optimizer step stays a
+standard-conforming profile, and `u = 0` is the middle of every range."""
+    ),
+    new_code_cell(
+        """chain = jc.ChainSpec.iso606("08B")
+z, rpm = 18, 1000.0
+space = DesignSpace.iso606(chain, z)
+forms = {f: jc.ToothProfile.iso606(chain, z, f) for f in ("min", "max", "mid")}
+for name, lo, hi in zip(jc.design.PARAMETERS, space.lower, space.upper):
+    print(f"{name:15s} {float(lo):.6g} … {float(hi):.6g}")
+jc.plot_profiles(chain, z, extra={"u = 0 (mid)": space.profile(jnp.zeros(4))});"""
+    ),
+    new_markdown_cell(
+        """## 2. The objective
+One roller meshing from a settled strand (window: the second tooth period), at
+each operating point (speeds), with a soft maximum of the roller/tooth force
+integrated by the solver (`soft_peak_force`). Fixed Tsit5 steps make it a smooth
+function of the profile; the ensemble mean makes it robust."""
+    ),
+    new_code_cell(
+        """period = 60.0 / (z * rpm)
+# contact onset regularized over 3 µm so that 4 µs steps resolve it: then the gradient
+# converges as the step shrinks (the nominal 10 nm onset is crossed inside one step)
+design_law = jc.scenes.roller_law(chain, 0.7, width=3e-6)
+
+
+def build(profile):
+    return [
+        jc.scenes.engagement(
+            chain, z, speed_rpm=rpm * f, profile=profile, n_entry=3, roller_contact=design_law
+        )
+        for f in SPEEDS
+    ]
+
+
+objective = ProfileObjective(
+    space, build, t1=2 * period, t_start=period, temperature=20.0, reference=1000.0, dt=4e-6
+)
+value, grad, members = objective.value_and_grad(jnp.zeros(4))
+print(f"objective at the mid form: {float(value):.1f} N, gradient {np.asarray(grad)}")"""
+    ),
+    new_markdown_cell("## 3. An optax loop"),
+    new_code_cell(
+        """opt = optax.adam(0.3)
+u = jnp.zeros(4)
+state = opt.init(u)
+history = []
+for k in range(ITERATIONS):
+    value, grad, _ = objective.value_and_grad(u)
+    history.append((np.asarray(u), float(value)))
+    print(f"{k:3d}  objective {float(value):8.1f} N  |grad| {float(jnp.linalg.norm(grad)):9.3g}")
+    updates, state = opt.update(grad, state, u)
+    u = optax.apply_updates(u, updates)
+u_best, best = min(history, key=lambda h: h[1])
+optimized = space.profile(u_best)
+for name, frac in zip(jc.design.PARAMETERS, space.fraction(u_best)):
+    print(f"{name:15s} at {100 * float(frac):5.1f} % of its ISO range")"""
+    ),
+    new_markdown_cell(
+        """## 4. The ISO forms and the optimized profile, re-measured independently
+A different solver (Dopri8), a tight tolerance, the *sharp* maximum and the nominal
+contact law: the win must survive outside the smoothed, regularized, fixed-step
+objective it was found with."""
+    ),
+    new_code_cell(
+        """def remeasure(profile):
+    scene = jc.scenes.engagement(chain, z, speed_rpm=rpm, profile=profile, n_entry=3)
+    return jc.simulate(
+        scene,
+        2 * period,
+        solver=diffrax.Dopri8(),
+        rtol=1e-7 if FAST else 1e-9,
+        atol=1e-10 if FAST else 1e-12,
+        ts=np.linspace(period, 2 * period, 4001),
+        max_steps=400_000,
+    )
+
+
+fig, ax = plt.subplots(figsize=(8, 4))
+for name, profile in [
+    ("ISO min form", forms["min"]),
+    ("ISO max form", forms["max"]),
+    ("optimized", optimized),
+]:
+    sol = remeasure(profile)
+    f = np.asarray(sol.roller_sprocket_force).max(axis=1)
+    ax.plot(np.asarray(sol.ts) * 1e3, f, label=f"{name}: peak {f.max():.0f} N")
+ax.set_xlabel("time [ms]")
+ax.set_ylabel("largest roller/tooth force [N]")
+ax.legend();"""
+    ),
+    new_code_cell('jc.plot_profiles(chain, z, extra={"optimized": optimized});'),
+    new_markdown_cell(
+        """## 5. What to read into it
+The meshing peak is a rough function of the seating radius at the micrometre scale
+(the roller rattles in its seat clearance; each rebound's timing moves with the
+geometry), so gradients are local: the main job averages over operating points, keeps
+the best iterate, re-measures with a second contact law, and compares with a
+gradient-free search on the same simulator. See `python -m optimize --help`."""
+    ),
+]
+
+
+def main():
+    return write(CELLS, "02_tooth_optimization.ipynb")
+
+
+if __name__ == "__main__":
+    main()
