@@ -5,7 +5,9 @@ Default scene: an 08B chain meshing an 18-tooth driver at 1000 rpm under 1000 N 
 engagement scene, lumped fidelity), robust over an ensemble of five speeds (±10 %).
 Writes results.json, profile.png, forces.png and objective.png to --out; checkpoints
 every iteration (--resume continues after an interrupt). ``JAXCHAIN_FAST=1`` (or
---fast) runs a small version for smoke tests.
+--fast) runs a small version for smoke tests. Compiled solves are kept in a persistent
+compilation cache, ``.jax_cache/`` in the working directory (``JAX_COMPILATION_CACHE_DIR``
+moves it): a second run skips most of the compile time.
 """
 
 from __future__ import annotations
@@ -15,7 +17,12 @@ import os
 import sys
 from pathlib import Path
 
-from .problem import Settings
+# Failures here are values (result codes, checked by the run), so equinox's in-graph
+# runtime checks may return NaN rather than call back to Python: computations without a
+# host callback are what XLA's persistent compilation cache keeps (see main()).
+os.environ.setdefault("EQX_ON_ERROR", "nan")
+
+from .problem import Settings  # noqa: E402
 
 
 def _floats(text: str) -> tuple[float, ...]:
@@ -133,6 +140,10 @@ def main(argv=None) -> dict:
     import jax
 
     jax.config.update("jax_enable_x64", True)  # the application (not the library) picks x64
+    # compiled solves persist across runs (a second run skips most of the compile time)
+    cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", ".jax_cache")
+    jax.config.update("jax_compilation_cache_dir", cache)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
     from .run import run
 
     settings, args = parse(argv)

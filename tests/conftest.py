@@ -20,3 +20,16 @@ import hypothesis  # noqa: E402
 hypothesis.settings.register_profile("default", deadline=None, max_examples=60, print_blob=True)
 hypothesis.settings.register_profile("ci", deadline=None, max_examples=60, derandomize=True)
 hypothesis.settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+
+def pytest_collection_modifyitems(items):
+    """Workers take whole files (module-scoped fixtures then compile once), except the
+    notebooks, each of which is a unit of its own (``--dist loadgroup``)."""
+    import pytest
+
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            name = item.module.__name__
+            if name.endswith("test_notebooks"):
+                name = item.name
+            item.add_marker(pytest.mark.xdist_group(name))
