@@ -13,6 +13,9 @@ from jaxchain.design import DesignSpace, ProfileObjective, soft_peak_force, wind
 
 from helpers import count_vector_field_calls
 
+# one worker for the design tests and the main job: they compile the same objective
+pytestmark = pytest.mark.xdist_group("design")
+
 CHAIN = jc.ChainSpec.iso606("08B")
 Z, RPM = 18, 1000.0
 PERIOD = 60.0 / (Z * RPM)
@@ -21,7 +24,7 @@ SPACE = DesignSpace.iso606(CHAIN, Z)
 
 # the design model's roller law: contact onset regularized over 3 µm so that fixed steps
 # of a few µs resolve it (the nominal 10 nm is crossed inside one step)
-DESIGN_LAW = eqx.tree_at(lambda law: law.width, jc.scenes.roller_law(CHAIN, 0.7), jnp.asarray(3e-6))
+DESIGN_LAW = jc.scenes.roller_law(CHAIN, 0.7, width=3e-6)
 
 
 def _build(profile, law=DESIGN_LAW):

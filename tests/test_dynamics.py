@@ -115,6 +115,7 @@ def test_static_equilibrium_of_drive(small_drive):
     assert dt_lo * r1 * math.cos(math.pi / 9) <= tau1 <= dt_hi * r1
 
 
+@pytest.mark.xdist_group("dynamics-clearance")
 @pytest.mark.parametrize("rollers", ["joint", "lumped"])
 def test_clearance_drive_settles(rollers):
     """The clearance drive (pin/bush free play on every joint, and with ``"joint"`` the
@@ -237,6 +238,7 @@ def test_energy_balance_without_dissipation():
     assert err < 1e-3, err  # measured 1.8e-4 (trapezoidal work integral)
 
 
+@pytest.mark.xdist_group("dynamics-engagement")
 def test_peak_force_self_converges(engagement18):
     """Peak roller/tooth force as the tolerance tightens, against rtol 1e-9: rtol 1e-8
     within 0.05 %, the default 1e-6 within 0.1 %, 1e-4 within 1 % (measured +0.008 %,
@@ -255,6 +257,7 @@ def test_peak_force_self_converges(engagement18):
     assert abs(peaks[1e-4] - ref) < 1e-2 * ref
 
 
+@pytest.mark.xdist_group("dynamics-engagement")
 def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engagement18):
     """With fixed steps the recorded peak is the largest top of the parabolas through each
     step's consecutive samples at quarter steps (dense-output states), read back
@@ -285,6 +288,7 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     assert f[::k].max() < 0.97 * top  # step ends alone
 
 
+@pytest.mark.xdist_group("dynamics-engagement")
 def test_engagement_starts_in_equilibrium(engagement18):
     """Settled start: the anchors pull with exactly their tensions, rollers are seated (in
     contact) on the wrap, and the first tooth period has no start-up shock."""
@@ -298,6 +302,7 @@ def test_engagement_starts_in_equilibrium(engagement18):
     assert int(jnp.sum(fr.roller_normal > 1.0)) >= 3
 
 
+@pytest.mark.xdist_group("dynamics-engagement")
 def test_failures_are_values(engagement18):
     T = period(1000, 18)
     sol = jc.simulate(engagement18, T, max_steps=20, throw=False)
@@ -322,6 +327,7 @@ def test_failures_are_values(engagement18):
         jc.simulate(engagement18, 0.0)
 
 
+@pytest.mark.xdist_group("dynamics-engagement")
 def test_second_call_does_not_retrace(engagement18, monkeypatch):
     calls = count_vector_field_calls(monkeypatch)
     T = period(1000, 18)
@@ -349,6 +355,15 @@ def test_scene_validation():
         jc.scenes.drive(fidelity="exact", settle=False)
     with pytest.raises(ValueError, match="pretension >= "):  # the slack span would push
         jc.scenes.drive(teeth=(12, 24), n_links=40, load_torque=20.0, pretension=200.0)
+    # a profile cut for another chain (10B on an 08B strand) would put rollers into teeth
+    other = jc.ToothProfile.iso606(jc.ChainSpec.iso606("10B"), 18)
+    with pytest.raises(ValueError, match=r"profile has pitch 15.88 mm but chain 08B has 12.7"):
+        jc.scenes.engagement("08B", 18, profile=other, settle=False)
+    mine = jc.ToothProfile.iso606(jc.ChainSpec.iso606("08B"), 36)
+    with pytest.raises(ValueError, match=r"profiles\[0\] has roller_diameter"):
+        jc.scenes.drive(
+            "08B", (18, 36), profiles=(jc.ToothProfile.iso606(jc.ChainSpec.iso606("08A"), 18), mine)
+        )
 
 
 @pytest.mark.parametrize("ratio", [0.5, 1.0, 2.0])
@@ -391,6 +406,7 @@ def _with_slots(scene, slots):
     return eqx.tree_at(lambda sc: sc.sprockets, scene, sprockets)
 
 
+@pytest.mark.xdist_group("dynamics-engagement")
 def test_contact_slots_are_exact_and_checked(engagement18):
     """Checking only the nearest rollers changes nothing (the others' force is exactly 0);
     too few slots is reported, not silently wrong."""
@@ -405,6 +421,7 @@ def test_contact_slots_are_exact_and_checked(engagement18):
     assert "contact_slots" in bad.message
 
 
+@pytest.mark.xdist_group("dynamics-clearance")
 def test_clearance_fidelity_balances_and_runs():
     """Clearance model (rigid links, pin/bush and bush/roller joints): every joint and
     contact force has its reaction, a short solve of the engagement succeeds, and the

@@ -11,7 +11,14 @@ from .._chain import ChainSpec
 from .._profile import ToothProfile
 from .build import joint_law, link_stiffness
 
-__all__ = ["resolve_chain", "disc_inertia", "contact_slots", "check_positive", "stretch_of"]
+__all__ = [
+    "resolve_chain",
+    "disc_inertia",
+    "contact_slots",
+    "check_positive",
+    "check_profile",
+    "stretch_of",
+]
 
 
 def resolve_chain(chain: ChainSpec | str) -> ChainSpec:
@@ -47,3 +54,16 @@ def stretch_of(chain: ChainSpec, fidelity: str, tension: float) -> float:
     law = joint_law(chain, "pin", 1.0)
     # mean of p (roller links) and p + 2·eccentricity (pin links)
     return float(law.clearance) + float(law.deflection(tension))
+
+
+def check_profile(chain: ChainSpec, profile: ToothProfile, what: str = "profile") -> None:
+    """A tooth profile must be cut for this chain: the same pitch and roller diameter (a
+    profile of another chain puts rollers into the teeth: forces of hundreds of kN)."""
+    for name in ("pitch", "roller_diameter"):
+        have, want = float(np.asarray(getattr(profile, name))), float(getattr(chain, name))
+        if not abs(have - want) <= 1e-9 * want:
+            raise ValueError(
+                f"{what} has {name} {have * 1e3:.4g} mm but chain {chain.name} has "
+                f"{want * 1e3:.4g} mm: build the profile for this chain, e.g. "
+                f"ToothProfile.iso606(chain, teeth, form)"
+            )

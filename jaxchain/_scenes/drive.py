@@ -11,7 +11,14 @@ from .._contact.friction import CoulombFriction
 from .._profile import ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
-from .common import check_positive, contact_slots, disc_inertia, resolve_chain, stretch_of
+from .common import (
+    check_positive,
+    check_profile,
+    contact_slots,
+    disc_inertia,
+    resolve_chain,
+    stretch_of,
+)
 from .layout import closed_drive_layout, transport_velocity
 from .statics import equilibrate
 
@@ -85,6 +92,8 @@ def drive(
         raise ValueError(f"pretension must be >= 0 N, got {pretension}")
     if profiles is None:
         profiles = (ToothProfile.iso606(chain, z1, form), ToothProfile.iso606(chain, z2, form))
+    for k, p in enumerate(profiles):
+        check_profile(chain, p, f"profiles[{k}]")
     if (profiles[0].teeth, profiles[1].teeth) != (z1, z2):
         raise ValueError(
             f"profiles have {profiles[0].teeth}/{profiles[1].teeth} teeth, teeth={teeth}"

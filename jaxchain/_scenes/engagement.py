@@ -14,7 +14,14 @@ from .._contact.friction import CoulombFriction
 from .._profile import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
-from .common import check_positive, contact_slots, disc_inertia, resolve_chain, stretch_of
+from .common import (
+    check_positive,
+    check_profile,
+    contact_slots,
+    disc_inertia,
+    resolve_chain,
+    stretch_of,
+)
 from .layout import strand_layout
 from .statics import equilibrate
 
@@ -64,6 +71,7 @@ def engagement(
         raise ValueError(f"slack_tension must be >= 0 N, got {slack_tension}")
     if profile is None:
         profile = ToothProfile.iso606(chain, teeth, form)
+    check_profile(chain, profile)
     if profile.teeth != teeth:
         raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
     if wrap is None:

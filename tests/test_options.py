@@ -1,0 +1,97 @@
+"""The one set of solve options, its checks, and the result names and messages (no solves:
+what every entry point shares)."""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxchain as jc
+from jaxchain._options import with_options
+from jaxchain._result import RESULT_NAMES
+
+
+def test_every_result_has_a_name_and_a_message_with_a_fix():
+    assert len(RESULT_NAMES) == len(jc.Result)
+    for name in RESULT_NAMES:
+        item = getattr(jc.Result, name)
+        assert jc.result_names(item) == [name]
+        message = jc.result_messages(item)[0]
+        assert (message == "") == (name == "successful"), name
+
+
+def test_result_names_of_a_batch():
+    """A member axis, as ensembles and design objectives return results."""
+    pick = lambda ok: jc.Result.where(ok, jc.Result.successful, jc.Result.max_steps_reached)
+    batch = jax.vmap(pick)(jnp.array([True, False, True]))
+    assert jc.result_names(batch) == ["successful", "max_steps_reached", "successful"]
+    messages = jc.result_messages(batch)
+    assert messages[0] == messages[2] == "" and "max_steps" in messages[1]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        (dict(rtol=0.0), ValueError, r"rtol must be a finite number > 0, got 0.0"),
+        (dict(atol=float("nan")), ValueError, r"atol must be a finite number > 0"),
+        (dict(max_steps=0), ValueError, r"max_steps must be a positive integer, got 0"),
+        (dict(max_steps=10.5), ValueError, r"max_steps must be a positive integer"),
+        (dict(max_steps=True), ValueError, r"max_steps must be a positive integer"),
+        (dict(dt0=-1e-6), ValueError, r"dt0 must be finite and > 0 s"),
+        (dict(dt=0.0), ValueError, r"dt must be > 0 s"),
+        (dict(dt=float("inf")), ValueError, r"dt must be a finite number of seconds"),
+        (dict(dt=1e-6, dt0=1e-6), ValueError, r"give dt \(fixed steps\) or dt0"),
+        (
+            dict(stepsize_controller=diffrax.ConstantStepSize()),
+            ValueError,
+            r"ConstantStepSize\) needs dt0 > 0",
+        ),
+        (dict(solver="tsit5"), TypeError, r"solver must be a diffrax solver"),
+        (dict(stepsize_controller=1e-6), TypeError, r"stepsize_controller must be a diffrax"),
+        (dict(adjoint="checkpoint"), TypeError, r"adjoint must be a diffrax adjoint"),
+        (dict(progress="yes"), TypeError, r"progress must be True or False"),
+    ],
+)
+def test_bad_options_say_what_is_wrong(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        jc.SolveOptions(**kwargs)
+
+
+def test_keyword_options_set_or_override_the_options_object():
+    base = jc.SolveOptions(rtol=1e-7, max_steps=1000)
+    assert with_options(None, {}, "simulate") == jc.SolveOptions()
+    assert with_options(base, {}, "simulate") is base
+    both = with_options(base, {"max_steps": 50}, "simulate")
+    assert (both.rtol, both.max_steps) == (1e-7, 50)
+    with pytest.raises(TypeError, match=r"unexpected keyword argument\(s\) \['rtl'\].*'rtol'"):
+        with_options(None, {"rtl": 1e-6}, "simulate")
+    with pytest.raises(TypeError, match="options must be a jaxchain.SolveOptions"):
+        with_options({"rtol": 1e-6}, {}, "simulate")
+
+
+def test_fixed_steps_from_dt():
+    opts = jc.SolveOptions(dt=4e-6)
+    assert opts.fixed and opts.steps(0.0, 1e-4) == 25
+    assert opts.steps(0.0, 1.0001e-4) == 26  # ⌈span/dt⌉
+    r = opts.resolve(0.0, 1e-4)
+    assert isinstance(r.controller, diffrax.ConstantStepSize)
+    assert r.max_steps == 25 and np.isclose(r.dt0, 4e-6)
+    assert r.adjoint.checkpoints == 25  # every step checkpointed
+    adaptive = jc.SolveOptions().resolve(0.0, 1e-4)
+    assert isinstance(adaptive.controller, diffrax.PIDController) and adaptive.dt0 is None
+
+
+def test_time_span_and_save_times_are_checked():
+    scene = jc.scenes.engagement("08B", 18, n_entry=3, n_exit=2, wrap=9, settle=False)
+    for kwargs, match in [
+        (dict(t1=0.0), r"t1 must be > t0"),
+        (dict(t1=float("nan")), r"t0 and t1 must be finite"),
+        (dict(t1=1e-3, ts=[0.0, 2e-3]), r"ts must lie within \[t0, t1\]"),
+        (dict(t1=1e-3, ts=[5e-4, 1e-4]), r"ts must be non-decreasing"),
+        (dict(t1=1e-3, ts=[[0.0, 1e-4]]), r"ts must be a 1-D array"),
+        (dict(t1=1e-3, n_save=1), r"n_save must be an integer >= 2"),
+        (dict(t1=[1e-3, 2e-3]), r"t1 must be a scalar time"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            jc.simulate(scene, **kwargs)
