@@ -39,14 +39,13 @@ For each setting:
   fails), then bisection; each boundary is the largest step below which every tried step
   passes. Peak error and wall time at the accurate step.
 
-Peaks here are ``Solution.peak_contact_force`` (the force at every accepted step and at
-t0, t1: what a user gets); at fixed steps of several µs on impacts lasting tens of µs
-that sampling is part of the error.
+Peaks here are ``Solution.peak_contact_force`` (each accepted step's top read from 5
+samples on the dense output, and the save times': what a user gets); at fixed steps of
+several µs on impacts lasting tens of µs that read-out is part of the error.
 
 **Fidelity.** Lumped against clearance (rigid pin and roller links on pin/bush and
-bush/roller clearance joints). Like with like: both start from the layout (written when
-the clearance statics did not settle yet; ``benchmarks/fidelity.py`` now compares settled
-starts), and the peaks are taken over the later engagements only
+bush/roller clearance joints). Like with like: both start from the layout
+(``benchmarks/fidelity.py`` compares settled starts), and the peaks are taken over the later engagements only
 (from the second tooth period on: the first holds the snap of the rollers into their
 seats). The free span ends are held by springs of 1/2000 of a link's stiffness instead of
 the default 1/50: with the default spring a strand started from the layout takes up its

@@ -5,15 +5,18 @@ workers, the notebooks they execute and the main job's runs."""
 import os
 from pathlib import Path
 
-import jax
-
 CACHE = Path(__file__).resolve().parents[1] / ".jax_cache"
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(CACHE))  # notebook kernels inherit it
+# As in the main job and the notebooks: equinox's in-graph checks return NaN instead of
+# calling back to Python (jaxchain reports failures as result codes, checked outside the
+# graph); XLA's persistent cache keeps only computations without host callbacks.
+os.environ.setdefault("EQX_ON_ERROR", "nan")
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
+
+import jax  # noqa: E402  (after the environment it reads)
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_platforms", "cpu")
-jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
 
 import hypothesis  # noqa: E402
 
