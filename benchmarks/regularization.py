@@ -45,14 +45,14 @@ several µs on impacts lasting tens of µs that read-out is part of the error.
 
 **Fidelity.** Lumped against clearance (rigid pin and roller links on pin/bush and
 bush/roller clearance joints). Like with like: both start from the layout
-(``benchmarks/fidelity.py`` compares settled starts), and the peaks are taken over the later engagements only
-(from the second tooth period on: the first holds the snap of the rollers into their
-seats). The free span ends are held by springs of 1/2000 of a link's stiffness instead of
-the default 1/50: with the default spring a strand started from the layout takes up its
-slack against that spring, and its tight span runs far below 1000 N for many periods, at
-a different level per fidelity (measured on the nominal speed, ``operating_point``); with
-the soft spring the anchor pulls its tension from the start. Forces and tensions saved
-every 1 µs.
+(``benchmarks/fidelity.py`` compares settled starts), and the peaks are taken over the
+later engagements only (from the second tooth period on: the first holds the snap of the
+rollers into their seats). The free span ends are held by springs of 1/2000 of a link's
+stiffness instead of the default 1/50: with the default spring a strand started from the
+layout takes up its slack against that spring, and its tight span runs far below 1000 N
+for many periods, at a different level per fidelity (measured on the nominal speed,
+``operating_point``); with the soft spring the anchor pulls its tension from the start.
+Forces and tensions saved every 1 µs.
 
 The peak over a few engagements is sensitive (rollers rattle in their seats, and in the
 clearance model in their joints), so each fidelity runs a small ensemble, the speed

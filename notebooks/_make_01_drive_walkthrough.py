@@ -42,7 +42,9 @@ import jaxchain as jc
 # compiled solves persist across kernel restarts in the repository's .jax_cache/ (XLA keeps
 # computations without host callbacks: hence equinox's in-graph checks as NaN above)
 CACHE = Path(jc.__file__).resolve().parents[1] / ".jax_cache"
-jax.config.update("jax_compilation_cache_dir", os.environ.get("JAX_COMPILATION_CACHE_DIR", str(CACHE)))
+jax.config.update(
+    "jax_compilation_cache_dir", os.environ.get("JAX_COMPILATION_CACHE_DIR", str(CACHE))
+)
 
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
 print("fast mode" if FAST else "full mode")"""
