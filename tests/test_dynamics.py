@@ -242,8 +242,8 @@ def test_energy_balance_without_dissipation():
 def test_peak_force_self_converges(engagement18):
     """Peak roller/tooth force as the tolerance tightens, against rtol 1e-9: rtol 1e-8
     within 0.05 %, the default 1e-6 within 0.1 %, 1e-4 within 1 % (measured +0.008 %,
-    −0.005 %, +0.42 %). Before the step midpoints were sampled too, the default was off by
-    −0.28 % to −0.84 % depending on where ~1800 step ends fell on the impact."""
+    −0.005 %, +0.42 %). The step ends alone would miss the top of the impact by −0.28 % to
+    −0.84 % at the default, depending on where ~1800 step ends fall on it."""
     T = period(1000, 18)
     peaks = {
         rtol: float(
@@ -411,12 +411,15 @@ def test_contact_slots_are_exact_and_checked(engagement18):
     """Checking only the nearest rollers changes nothing (the others' force is exactly 0);
     too few slots is reported, not silently wrong."""
     T = period(1000, 18)
-    a = jc.simulate(_with_slots(engagement18, [12]), T, n_save=101)
-    b = jc.simulate(_with_slots(engagement18, [None]), T, n_save=101)
+    # every roller checked is the scene as built (the solve test_peak_force_self_converges
+    # compiles: default options)
+    assert engagement18.sprockets[0].contact_slots is None
+    a = jc.simulate(_with_slots(engagement18, [12]), T)
+    b = jc.simulate(engagement18, T)
     np.testing.assert_allclose(
         a.roller_sprocket_force, b.roller_sprocket_force, rtol=1e-9, atol=1e-9
     )
-    bad = jc.simulate(_with_slots(engagement18, [3]), T, n_save=101, throw=False)
+    bad = jc.simulate(_with_slots(engagement18, [3]), T, throw=False)
     assert bad.result == jc.Result.contact_slots_exceeded
     assert "contact_slots" in bad.message
 
