@@ -158,6 +158,7 @@ def solve(
     subs = [diffrax.SubSaveAt(t1=True)]
     if ts is not None:
         subs.insert(0, diffrax.SubSaveAt(ts=ts))
+    args = _Args(scene, integrals)
     sol = diffrax.diffeqsolve(
         _terms(resolved.solver),
         _Observed(resolved.solver, (Health(), *steps)),
@@ -165,7 +166,7 @@ def solve(
         t1,
         resolved.dt0,
         (y0, i0) if integrals else y0,
-        args=_Args(scene, integrals),
+        args=args,
         saveat=diffrax.SaveAt(subs=subs, solver_state=True),
         stepsize_controller=resolved.controller,
         max_steps=resolved.max_steps,
@@ -173,7 +174,6 @@ def solve(
         progress_meter=resolved.meter,
         throw=False,
     )
-    args = _Args(scene, integrals)
     *saved_states, final = sol.ys
     y1 = jax.tree_util.tree_map(lambda x: x[-1], _drive(final, args))
     i1 = jax.tree_util.tree_map(lambda x: x[-1], final[1]) if integrals else ()
@@ -182,12 +182,13 @@ def solve(
         ys = _drive(saved_states[0], args)
         saved = jax.vmap(outputs, in_axes=(0, 0, None))(ts, ys, scene)
     (healthy, slots_ok), *step_states = sol.solver_state[1]
-    observed = {}
-    for o, s in zip(steps, step_states, strict=True):
-        observed[id(o)] = o.value(s, t0, t1)
-    for o, s in zip(integrals, i1, strict=True):
-        observed[id(o)] = o.value(s, t0, t1)
-    observed = tuple(observed[id(o)] for o in observers)
+    # each observer's value, in the order given
+    step_values = iter([o.value(s, t0, t1) for o, s in zip(steps, step_states, strict=True)])
+    integral_values = iter([o.value(s, t0, t1) for o, s in zip(integrals, i1, strict=True)])
+    observed = tuple(
+        next(step_values if isinstance(o, AbstractStepObserver) else integral_values)
+        for o in observers
+    )
     result = classify(sol.result, healthy & _all_finite(observed), slots_ok)
     stats = dict(sol.stats)
     stats["diffrax_result"] = sol.result
