@@ -304,23 +304,10 @@ def test_engagement_starts_in_equilibrium(engagement18):
 
 @pytest.mark.xdist_group("dynamics-engagement")
 def test_failures_are_values(engagement18):
+    """Bad options are refused before anything is traced; failed solves come back as
+    result codes (every failure mode, on a strand small enough to compile quickly, and the
+    same codes from the design objective's solve: tests/test_failures.py)."""
     T = period(1000, 18)
-    sol = jc.simulate(engagement18, T, max_steps=20, throw=False)
-    assert sol.result == jc.Result.max_steps_reached
-    assert "max_steps" in sol.message
-    with pytest.raises(RuntimeError, match="max_steps"):
-        jc.simulate(engagement18, T, max_steps=20)
-    # an explicit fixed step far above the stability limit diverges: reported, not silent
-    sol = jc.simulate(
-        engagement18,
-        T,
-        solver=diffrax.Euler(),
-        stepsize_controller=diffrax.ConstantStepSize(),
-        dt0=T / 20,
-        throw=False,
-    )
-    assert sol.result == jc.Result.diverged
-    assert "non-finite" in sol.message and "dt0" in sol.message
     with pytest.raises(ValueError, match="dt0"):
         jc.simulate(engagement18, T, stepsize_controller=diffrax.ConstantStepSize())
     with pytest.raises(ValueError, match="t1 must be > t0"):
@@ -334,9 +321,10 @@ def test_second_call_does_not_retrace(engagement18, monkeypatch):
     sc2 = jax.tree_util.tree_map(lambda x: x, engagement18)
     sc2 = __import__("equinox").tree_at(lambda s: s.sprockets[0].speed, sc2, jnp.asarray(110.0))
     # (weakly typed on purpose: simulate canonicalizes dtypes so this does not retrace)
-    jc.simulate(engagement18, 0.2 * T, n_save=7)
+    # default options: the solve test_peak_force_self_converges compiles
+    jc.simulate(engagement18, 0.2 * T)
     n = len(calls)
-    jc.simulate(sc2, 0.3 * T, n_save=7)  # new speed, new t1: same structure
+    jc.simulate(sc2, 0.3 * T)  # new speed, new t1: same structure
     assert len(calls) == n
 
 
