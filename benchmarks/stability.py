@@ -285,7 +285,7 @@ def fixed_run(scene, solver, h, horizon, max_steps, ref_peak):
     blown = not finite or not peak <= BLOWUP * ref_peak
     return {
         "dt": float(h),
-        "result": _code(sol),
+        "result": jc.result_names(sol.result)[0],
         "library_ok": sol.ok,
         "stable": sol.ok and not blown,  # what the map and the boundary use
         "undetected": sol.ok and blown,  # the library called a blow-up successful
@@ -295,21 +295,6 @@ def fixed_run(scene, solver, h, horizon, max_steps, ref_peak):
         "max_speed_over_chain_speed": float(speed.max() / v_chain) if speed.size else None,
         "all_finite": finite,
     }
-
-
-def _code(sol) -> str:
-    for name in (
-        "successful",
-        "max_steps_reached",
-        "step_size_collapse",
-        "diverged",
-        "implicit_solver_failed",
-        "contact_slots_exceeded",
-        "internal",
-    ):
-        if sol.result == getattr(jc.Result, name):
-            return name
-    return "unknown"
 
 
 def boundary(scene, solver, h_guess, horizon, max_steps, span, n_bisect, ref_peak):
@@ -512,7 +497,7 @@ def gradient_study(scene, horizons, dt, fd_check):
         row = {
             "periods": k,
             "soft_peak_N": float(value),
-            "result": _code(out),
+            "result": jc.result_names(out.result)[0],
             "grad_N": g.tolist(),
             "grad_norm_N": float(np.linalg.norm(g)),
             "finite": bool(np.all(np.isfinite(g))),

@@ -15,7 +15,7 @@ form they are committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import write
+from _write import CACHE, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -34,23 +34,18 @@ scene starts from). This is what `python -m optimize` runs; here each step is sh
 from pathlib import Path
 import jax
 
-jax.config.update("jax_enable_x64", True)  # jaxchain never changes JAX config itself
-os.environ.setdefault("EQX_ON_ERROR", "nan")  # failures are result codes here (see below)
-import diffrax
+"""
+        + X64
+        + """import diffrax
 import jax.numpy as jnp
 import matplotlib.pyplot as plt
 import numpy as np
 import optax
 
 import jaxchain as jc
-
-# compiled solves persist across kernel restarts in the repository's .jax_cache/ (XLA keeps
-# computations without host callbacks: hence equinox's in-graph checks as NaN above)
-CACHE = Path(jc.__file__).resolve().parents[1] / ".jax_cache"
-jax.config.update(
-    "jax_compilation_cache_dir", os.environ.get("JAX_COMPILATION_CACHE_DIR", str(CACHE))
-)
-from jaxchain.design import DesignSpace, ProfileObjective
+"""
+        + CACHE
+        + """from jaxchain.design import DesignSpace, ProfileObjective
 
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
 ITERATIONS = 2 if FAST else 15

@@ -14,7 +14,7 @@ form they are committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import write
+from _write import CACHE, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -38,19 +38,14 @@ from pathlib import Path
 
 import jax
 
-jax.config.update("jax_enable_x64", True)  # jaxchain never changes JAX config itself
-os.environ.setdefault("EQX_ON_ERROR", "nan")  # failures are result codes here (see below)
-import diffrax
+"""
+        + X64
+        + """import diffrax
 
 import jaxchain as jc
-
-# compiled solves persist across kernel restarts in the repository's .jax_cache/ (XLA keeps
-# computations without host callbacks: hence equinox's in-graph checks as NaN above)
-CACHE = Path(jc.__file__).resolve().parents[1] / ".jax_cache"
-jax.config.update(
-    "jax_compilation_cache_dir", os.environ.get("JAX_COMPILATION_CACHE_DIR", str(CACHE))
-)
-
+"""
+        + CACHE
+        + """
 root = Path(jc.__file__).resolve().parents[1]  # the repository, for benchmarks/
 if (root / "benchmarks").is_dir() and str(root) not in sys.path:
     sys.path.insert(0, str(root))
