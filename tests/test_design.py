@@ -259,6 +259,17 @@ def test_no_nan_gradients_at_the_corners_of_the_box(short_objective):
     assert np.isfinite(float(value)) and np.all(np.isfinite(np.asarray(grad)))
 
 
+def test_a_failed_member_is_never_a_value():
+    """A fixed step far above the stability limit (200 µs) diverges: the objective raises
+    naming the member and the fix, or with ``throw=False`` returns NaN and the codes —
+    never a plausible number an optimizer would take for a result."""
+    kw = dict(t1=2 * PERIOD, t_start=PERIOD, temperature=50.0, reference=2000.0, dt=2e-4)
+    with pytest.raises(RuntimeError, match=r"(?s)1 of 1 members failed .*diverged.*reduce dt0"):
+        ProfileObjective(SPACE, _build, **kw).value(jnp.zeros(4))
+    value, out = ProfileObjective(SPACE, _build, throw=False, **kw).value(jnp.zeros(4))
+    assert np.isnan(float(value)) and jc.result_names(out.result) == ["diverged"]
+
+
 def test_second_call_does_not_retrace(short_objective, monkeypatch):
     calls = count_vector_field_calls(monkeypatch)
     short_objective.value_and_grad(jnp.array([0.1, 0.1, 0.1, 0.1]))
