@@ -17,12 +17,12 @@ from ._chain import ChainSpec
 from ._ensemble import stack
 from ._numerics import is_concrete
 from ._observers import EXP_CAP as EXP_CAP, SoftPeak, window_weight as window_weight
-from ._options import SolveOptions, tree_strong, with_options
+from ._options import SolveOptions, with_options
 from ._profile import ToothProfile, iso606_limits
 from ._result import Result, raise_if_failed
 from ._scene import Scene
 from ._scenes.statics import resettle
-from ._solve import solve
+from ._solve import solve, strong_scene
 
 __all__ = [
     "PARAMETERS",
@@ -144,7 +144,7 @@ def soft_peak_force(
     t_start = jnp.asarray(t_start, dtype=float)
     rise = 0.05 * (t1 - t_start) if rise is None else rise
     observer = SoftPeak(t_start, rise, temperature, reference)
-    traj = solve(tree_strong(scene), t0, t1, None, resolved, (observer,))
+    traj = solve(strong_scene(scene, "soft_peak_force"), t0, t1, None, resolved, (observer,))
     return PeakForce(traj.observed[0], traj.result, traj.stats["num_steps"])
 
 

@@ -9,7 +9,6 @@ from typing import NamedTuple
 
 import diffrax
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
@@ -161,12 +160,3 @@ def with_options(options: SolveOptions | None, given: dict, caller: str) -> Solv
     if not isinstance(options, SolveOptions):
         raise TypeError(f"options must be a jaxchain.SolveOptions, got {type(options).__name__}")
     return dataclasses.replace(options, **given) if given else options
-
-
-def tree_strong(tree):
-    """Every inexact array leaf with a strong dtype: a weakly typed leaf
-    (``jnp.asarray(110.0)``) must not force a retrace."""
-    return jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
-        tree,
-    )

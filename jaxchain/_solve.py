@@ -20,7 +20,7 @@ from jaxtyping import Array
 
 from ._dynamics import DriveState, forces, initial_state, outputs, rates
 from ._observers import AbstractIntegralObserver, AbstractStepObserver, Health
-from ._options import Resolved, tree_strong
+from ._options import Resolved
 from ._result import Result, classify
 from ._scene import Scene
 
@@ -201,9 +201,13 @@ def _zeros_of(observer: AbstractIntegralObserver, t0, y0, scene):
 
 
 def strong_scene(scene: Scene, caller: str) -> Scene:
-    """The scene with strong dtypes (no retrace for a weakly typed leaf); warns when it is
-    not float64."""
-    scene = tree_strong(scene)
+    """The scene with every inexact array leaf strongly typed (a weakly typed leaf such as
+    ``jnp.asarray(110.0)`` must not force a retrace); warns when it is not float64. Every
+    entry point passes its scene through here."""
+    scene = jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
+        scene,
+    )
     if jnp.result_type(scene.q0) != jnp.float64:
         warnings.warn(
             f"{caller}: the scene is {jnp.result_type(scene.q0)} (jax_enable_x64 is off). "
