@@ -41,6 +41,7 @@ from ._profile import (
 )
 from ._result import (
     Result as Result,
+    SolveError as SolveError,
     result_messages as result_messages,
     result_names as result_names,
 )

@@ -22,7 +22,7 @@ from ._profile import ToothProfile, iso606_limits
 from ._result import Result, raise_if_failed
 from ._scene import Scene
 from ._scenes.statics import resettle
-from ._solve import solve, strong_scene
+from ._solve import check_horizon, solve, strong_scene
 
 __all__ = [
     "PARAMETERS",
@@ -144,7 +144,9 @@ def soft_peak_force(
     t_start = jnp.asarray(t_start, dtype=float)
     rise = 0.05 * (t1 - t_start) if rise is None else rise
     observer = SoftPeak(t_start, rise, temperature, reference)
-    traj = solve(strong_scene(scene, "soft_peak_force"), t0, t1, None, resolved, (observer,))
+    scene = strong_scene(scene, "soft_peak_force")
+    check_horizon(scene, t1, "soft_peak_force")
+    traj = solve(scene, t0, t1, None, resolved, (observer,))
     return PeakForce(traj.observed[0], traj.result, traj.stats["num_steps"])
 
 
@@ -265,6 +267,7 @@ class ProfileObjective:
         return stack([built] if isinstance(built, Scene) else list(built))
 
     def _count(self, scenes):
+        check_horizon(scenes, self.config.t1, "ProfileObjective", members=True)
         self.evaluations += jax.tree_util.tree_leaves(scenes)[0].shape[0]
 
     def _checked(self, value, grad, out: PeakForce):

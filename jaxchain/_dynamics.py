@@ -178,6 +178,31 @@ def contact_slots_ok(y: DriveState, scene: Scene) -> Array:
     return jnp.all(jax.vmap(one)(tips, centres))
 
 
+def _pair(grp, q, v, cs, impact_speed):
+    """A pair group's tensions, unit directions a→b and lever arms."""
+    xa, va, arm_a = _points(q, v, grp.a, grp.ra, cs)
+    xb, vb, arm_b = _points(q, v, grp.b, grp.rb, cs)
+    d = xb - xa
+    u = safe_normalize(d, jnp.array([1.0, 0.0], dtype=q.dtype))
+    rate = jnp.sum(u * (vb - va), axis=-1)
+    return grp.element.tension(safe_norm(d), rate, impact_speed), u, arm_a, arm_b
+
+
+def peak_tension(y: DriveState, scene: Scene) -> Array:
+    """The largest tension of any tension-carrying element (link spring or pin/bush joint)
+    [N]; cheap beside the contacts (what the solve's health compares with the chain's
+    tensile strength)."""
+    cs = _rot(y.q[:, 2])
+    tensions = [
+        _pair(grp, y.q, y.v, cs, scene.impact_speed)[0]
+        for grp in scene.pairs
+        if grp.carries_tension
+    ]
+    if not tensions:
+        return jnp.zeros((), y.q.dtype)
+    return jnp.max(jnp.concatenate(tensions))
+
+
 def forces(t, y: DriveState, scene: Scene) -> Forces:
     n = scene.n_bodies
     q, v = y.q, y.v
@@ -185,13 +210,7 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
     tensions = []
     cs = _rot(q[:, 2])
     for grp in scene.pairs:
-        xa, va, arm_a = _points(q, v, grp.a, grp.ra, cs)
-        xb, vb, arm_b = _points(q, v, grp.b, grp.rb, cs)
-        d = xb - xa
-        length = safe_norm(d)
-        u = safe_normalize(d, jnp.array([1.0, 0.0], dtype=q.dtype))
-        rate = jnp.sum(u * (vb - va), axis=-1)
-        tension = grp.element.tension(length, rate, scene.impact_speed)
+        tension, u, arm_a, arm_b = _pair(grp, q, v, cs, scene.impact_speed)
         f = tension[:, None] * u
         total = total + _scatter(n, grp.a, arm_a, f) + _scatter(n, grp.b, arm_b, -f)
         if grp.carries_tension:

@@ -34,7 +34,7 @@ from ._options import Resolved, SolveOptions, with_options
 from ._result import Result, raise_if_failed, result_messages, result_names
 from ._scene import Scene
 from ._simulate import Solution, peak_of, time_span
-from ._solve import solve, strong_scene
+from ._solve import check_horizon, solve, strong_scene
 
 __all__ = ["stack", "simulate_ensemble", "EnsembleSolution"]
 
@@ -433,8 +433,9 @@ def simulate_ensemble(
         raise ValueError(f"a per-member dt0 must have shape ({m},), got {np.shape(dt0)}")
     if dt0 is not None and not member_dt0 and np.ndim(dt0) != 0:
         raise ValueError(f"dt0 must be a scalar or ({m},), got shape {np.shape(dt0)}")
-    scenes = strong_scene(scenes, "simulate_ensemble")
+    scenes = strong_scene(scenes, "simulate_ensemble", members=True)
     t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
+    check_horizon(scenes, t1a, "simulate_ensemble", members=True)
     args = _Args(t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(),))
     dt0_m = None
     if member_dt0:

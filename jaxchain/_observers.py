@@ -22,7 +22,14 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._dynamics import DriveState, Forces, contact_slots_ok, roller_contacts, roller_kinematics
+from ._dynamics import (
+    DriveState,
+    Forces,
+    contact_slots_ok,
+    peak_tension,
+    roller_contacts,
+    roller_kinematics,
+)
 from ._numerics import parabola_max
 from ._result import FLYING_APART
 from ._scene import Scene
@@ -140,7 +147,8 @@ class Health(AbstractStepObserver):
     limit makes the stiffest mode ring up and the rollers outrun anything the drive can
     give them (engagement: ≤ 1.1× the pitch-line speed when right, 8× at a peak force 5×
     too high, 10⁵× later) — and every roller within reach of a sprocket inside its
-    contact slots. Carried by every solve; read by the one classification."""
+    contact slots; it also keeps the largest tension of any link (compared with the
+    chain's tensile strength). Carried by every solve; read by the one classification."""
 
     def _limits(self, scene):
         size = jnp.max(jnp.abs(scene.q0[:, :2])) + jnp.max(
@@ -152,22 +160,23 @@ class Health(AbstractStepObserver):
         return 1e3 * size, FLYING_APART * (chain_speed + scene.impact_speed)
 
     def _check(self, y, scene):
-        y = jax.lax.stop_gradient(y)
-        reach, fastest = self._limits(jax.lax.stop_gradient(scene))
+        y, scene = jax.lax.stop_gradient((y, scene))
+        reach, fastest = self._limits(scene)
         finite = jnp.all(
             jnp.stack([jnp.all(jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(y)])
         )
         xr, vr = roller_kinematics(y, scene)
         inside = jnp.all(jnp.abs(xr) < reach)
         slow = jnp.all(jnp.sum(vr * vr, -1) < fastest**2)
-        return finite & inside & slow, contact_slots_ok(y, scene)
+        return finite & inside & slow, contact_slots_ok(y, scene), peak_tension(y, scene)
 
     def init(self, t0, y0, scene):
         return self._check(y0, scene)
 
     def step(self, t0, t1, y0, y1, dense, scene, state):
-        healthy, slots = self._check(y1, scene)
-        return state[0] & healthy, state[1] & slots
+        healthy, slots, tension = self._check(y1, scene)
+        # NaN tension (a blown-up state) is caught by `healthy`
+        return state[0] & healthy, state[1] & slots, jnp.fmax(state[2], tension)
 
     def value(self, state, t0, t1):
         return state

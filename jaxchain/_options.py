@@ -29,6 +29,7 @@ class Resolved(NamedTuple):
     max_steps: int
     adjoint: diffrax.AbstractAdjoint
     meter: diffrax.AbstractProgressMeter
+    allow_float32: bool
 
 
 class SolveOptions(eqx.Module):
@@ -53,6 +54,9 @@ class SolveOptions(eqx.Module):
             value+gradient 3.6–4.4× the value on the ensemble benchmark, against 4.2–4.9×
             with the default.
         progress: show a progress meter (tqdm if installed, else text).
+        allow_float32: accept a float32 scene (jax_enable_x64 off); otherwise its solve is
+            reported as ``float32_state`` (its forces can be wrong while it looks
+            successful).
     """
 
     solver: diffrax.AbstractSolver | None = None
@@ -64,6 +68,7 @@ class SolveOptions(eqx.Module):
     stepsize_controller: diffrax.AbstractStepSizeController | None = None
     adjoint: diffrax.AbstractAdjoint | None = None
     progress: bool = False
+    allow_float32: bool = False
 
     def __check_init__(self):
         if self.solver is not None and not isinstance(self.solver, diffrax.AbstractSolver):
@@ -98,8 +103,9 @@ class SolveOptions(eqx.Module):
                 )
         if isinstance(c, diffrax.ConstantStepSize) and self.dt0 is None:
             raise ValueError("a fixed step (ConstantStepSize) needs dt0 > 0 [s] (or use dt=)")
-        if not isinstance(self.progress, bool):
-            raise TypeError(f"progress must be True or False, got {self.progress!r}")
+        for name in ("progress", "allow_float32"):
+            if not isinstance(getattr(self, name), bool):
+                raise TypeError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
     @property
     def fixed(self) -> bool:
@@ -140,7 +146,7 @@ class SolveOptions(eqx.Module):
                 meter = diffrax.TextProgressMeter()
         else:
             meter = diffrax.NoProgressMeter()
-        return Resolved(solver, controller, dt0, max_steps, adjoint, meter)
+        return Resolved(solver, controller, dt0, max_steps, adjoint, meter, self.allow_float32)
 
 
 _FIELDS = tuple(f.name for f in dataclasses.fields(SolveOptions))

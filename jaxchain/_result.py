@@ -11,6 +11,7 @@ from jaxtyping import Array, Bool
 
 __all__ = [
     "Result",
+    "SolveError",
     "RESULT_NAMES",
     "result_names",
     "result_messages",
@@ -22,6 +23,16 @@ __all__ = [
 # a roller faster than this many times (pitch-line speed + reference impact speed) has
 # flown apart (the solve diverged)
 FLYING_APART = 5.0
+
+
+class SolveError(RuntimeError):
+    """A solve (or a member of an ensemble or design objective) did not succeed; the
+    message says what happened and what to change, ``names`` holds every member's
+    :class:`Result` name."""
+
+    def __init__(self, message: str, names: list[str]):
+        super().__init__(message)
+        self.names = names
 
 
 class Result(eqx.Enumeration):
@@ -58,6 +69,25 @@ class Result(eqx.Enumeration):
         "more slots, or contact_slots=None to check every roller."
     )
     internal = "diffrax reported an internal failure; see the diffrax result in the stats."
+    past_horizon = (
+        "t1 lies past the scene's horizon (Scene.horizon), the time up to which it models "
+        "its drive: an engagement's entry span holds n_entry rollers and meshes one per "
+        "tooth period, so past n_entry tooth periods its held end reaches the sprocket and "
+        "the forces mean nothing. End the solve by the horizon, or build the scene with a "
+        "larger n_entry."
+    )
+    float32_state = (
+        "The state is float32 (jax_enable_x64 is off): positions of ~0.1 m are then resolved "
+        "to ~1e-8 m, comparable to contact deflections, and a solve can look successful "
+        "with wrong forces. Call jax.config.update('jax_enable_x64', True) before building "
+        "the scene, or pass allow_float32=True to accept a float32 solve."
+    )
+    chain_overloaded = (
+        "A link tension exceeded the chain's tensile strength (Scene.tensile_strength, the "
+        "ISO 606 minimum): a real chain would have broken. Lower the load torque or the "
+        "pretension, or choose a larger chain; absurd tensions also come from a profile or "
+        "contact law that does not fit the chain."
+    )
 
 
 RESULT_NAMES = (
@@ -68,6 +98,9 @@ RESULT_NAMES = (
     "implicit_solver_failed",
     "contact_slots_exceeded",
     "internal",
+    "past_horizon",
+    "float32_state",
+    "chain_overloaded",
 )
 
 
@@ -84,10 +117,20 @@ def result_messages(result: Result) -> list[str]:
     return [Result[getattr(Result, n)] for n in result_names(result)]
 
 
-def classify(diffrax_result, healthy: Bool[Array, ""], slots_ok: Bool[Array, ""]) -> Result:
-    """The one classification of a solve: diffrax's own result, then (for a solve diffrax
-    calls successful) the solution's health — finite, rollers in the scene and slower than
-    the flying-apart limit — and the contact slots."""
+def classify(
+    diffrax_result,
+    healthy: Bool[Array, ""],
+    slots_ok: Bool[Array, ""],
+    *,
+    within_horizon: Bool[Array, ""] = True,
+    float_ok: bool = True,
+    within_strength: Bool[Array, ""] = True,
+) -> Result:
+    """The one classification of a solve, first cause first: a solve past the scene's
+    horizon, a float32 state not allowed, then diffrax's own result, then (for a solve
+    diffrax calls successful) the solution's health — finite, rollers in the scene and
+    slower than the flying-apart limit — the chain's tensile strength and the contact
+    slots."""
     r = diffrax.RESULTS
     out = Result.where(diffrax_result == r.successful, Result.successful, Result.internal)
     out = Result.where(diffrax_result == r.max_steps_reached, Result.max_steps_reached, out)
@@ -99,12 +142,17 @@ def classify(diffrax_result, healthy: Bool[Array, ""], slots_ok: Bool[Array, ""]
     # it calls successful (an unfinished one has padded, meaningless outputs)
     ok = diffrax_result == r.successful
     out = Result.where(ok & ~healthy, Result.diverged, out)
-    return Result.where(slots_ok | (out != Result.successful), out, Result.contact_slots_exceeded)
+    good = out == Result.successful
+    out = Result.where(good & ~jnp.asarray(within_strength), Result.chain_overloaded, out)
+    out = Result.where((out == Result.successful) & ~slots_ok, Result.contact_slots_exceeded, out)
+    if not float_ok:
+        out = Result.where(jnp.asarray(True), Result.float32_state, out)
+    return Result.where(jnp.asarray(within_horizon), out, Result.past_horizon)
 
 
 def raise_if_failed(result: Result, payload, caller: str):
     """``payload`` if every element of ``result`` is successful. Otherwise, outside a trace,
-    raise ``RuntimeError`` with what happened and what to change (naming the failed
+    raise :class:`SolveError` (a ``RuntimeError``) with what happened and what to change (naming the failed
     members of a batched result); inside the caller's ``jit``/``grad``, ``payload`` with a
     runtime error attached (``eqx.error_if``)."""
     failed = jnp.any(result != Result.successful)
@@ -114,9 +162,11 @@ def raise_if_failed(result: Result, payload, caller: str):
         return payload
     names, messages = result_names(result), result_messages(result)
     if np.ndim(np.asarray(result == Result.successful)) == 0:
-        raise RuntimeError(f"{caller} failed: {messages[0]}")
+        raise SolveError(f"{caller} failed ({names[0]}): {messages[0]}", names)
     bad = [i for i, n in enumerate(names) if n != "successful"]
     lines = [f"member {i}: {names[i]}: {messages[i]}" for i in bad]
-    raise RuntimeError(
-        f"{caller}: {len(bad)} of {len(names)} members failed (members {bad}):\n" + "\n".join(lines)
+    raise SolveError(
+        f"{caller}: {len(bad)} of {len(names)} members failed (members {bad}):\n"
+        + "\n".join(lines),
+        names,
     )

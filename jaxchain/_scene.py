@@ -180,6 +180,11 @@ class Scene(eqx.Module):
             (a law with restitution e gives e at this impact speed; see docs).
         q0, v0: (N, 3) initial positions (x, y, φ) and velocities.
         link_weights: (n_links, n_tension_elements) maps element tensions to links.
+        horizon: the time up to which the scene models its drive [s] (an open strand runs
+            out of chain: the engagement's entry span meshes ``n_entry`` tooth periods;
+            ``inf`` for a closed drive). A solve past it is reported as ``past_horizon``.
+        tensile_strength: the chain's minimum tensile strength [N] (ISO 606); a link
+            tension beyond it is reported as ``chain_overloaded``.
         fidelity: "lumped" or "clearance" (static).
         gravity: (2,) [m/s²].
     """
@@ -198,6 +203,8 @@ class Scene(eqx.Module):
     v0: Float[Array, "N 3"]
     link_weights: Float[Array, "L E"]
     gravity: Float[Array, 2]
+    horizon: Float[Array, ""]
+    tensile_strength: Float[Array, ""]
     fidelity: str = eqx.field(static=True)
 
     @property

@@ -12,7 +12,7 @@ from ._observers import PeakRecord
 from ._options import SolveOptions, with_options
 from ._result import Result, raise_if_failed, result_names
 from ._scene import Scene
-from ._solve import solve, strong_scene
+from ._solve import check_horizon, solve, strong_scene
 
 __all__ = ["simulate", "Solution", "time_span"]
 
@@ -136,6 +136,7 @@ def simulate(
     opts = with_options(options, solve_options, "simulate")
     scene = strong_scene(scene, "simulate")
     t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
+    check_horizon(scene, t1a, "simulate")
     traj = solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(),))
     saved = traj.saved
     if throw:

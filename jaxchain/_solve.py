@@ -16,15 +16,17 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array
 
 from ._dynamics import DriveState, forces, initial_state, outputs, rates
+from ._numerics import is_concrete
 from ._observers import AbstractIntegralObserver, AbstractStepObserver, Health
 from ._options import Resolved
 from ._result import Result, classify
 from ._scene import Scene
 
-__all__ = ["solve", "Trajectory", "strong_scene"]
+__all__ = ["solve", "Trajectory", "strong_scene", "check_horizon"]
 
 
 class _Args(NamedTuple):
@@ -181,7 +183,7 @@ def solve(
     if ts is not None:
         ys = _drive(saved_states[0], args)
         saved = jax.vmap(outputs, in_axes=(0, 0, None))(ts, ys, scene)
-    (healthy, slots_ok), *step_states = sol.solver_state[1]
+    (healthy, slots_ok, tension), *step_states = sol.solver_state[1]
     # each observer's value, in the order given
     step_values = iter([o.value(s, t0, t1) for o, s in zip(steps, step_states, strict=True)])
     integral_values = iter([o.value(s, t0, t1) for o, s in zip(integrals, i1, strict=True)])
@@ -189,9 +191,17 @@ def solve(
         next(step_values if isinstance(o, AbstractStepObserver) else integral_values)
         for o in observers
     )
-    result = classify(sol.result, healthy & _all_finite(observed), slots_ok)
+    result = classify(
+        sol.result,
+        healthy & _all_finite(observed),
+        slots_ok,
+        within_horizon=t1 <= scene.horizon * (1 + 1e-9),
+        float_ok=resolved.allow_float32 or jnp.result_type(y0.q) == jnp.float64,
+        within_strength=tension <= scene.tensile_strength,
+    )
     stats = dict(sol.stats)
     stats["diffrax_result"] = sol.result
+    stats["peak_link_tension"] = tension
     return Trajectory(saved, y1, observed, result, stats)
 
 
@@ -200,10 +210,40 @@ def _zeros_of(observer: AbstractIntegralObserver, t0, y0, scene):
     return jnp.zeros(shape.shape, shape.dtype)
 
 
-def strong_scene(scene: Scene, caller: str) -> Scene:
+def check_horizon(scene: Scene, t1, caller: str, members: bool = False) -> None:
+    """Raise ``ValueError`` when a concrete ``t1`` lies past a concrete scene horizon
+    (every member of a stacked scene with ``members``); traced values are left to the
+    solve's ``past_horizon`` code."""
+    if not is_concrete(t1, scene.horizon):
+        return
+    horizon = np.atleast_1d(np.asarray(scene.horizon, dtype=float))
+    late = np.nonzero(float(t1) > horizon * (1 + 1e-9))[0]
+    if late.size:
+        which = f"members {late.tolist()} end" if members else "the scene ends"
+        raise ValueError(
+            f"{caller}: t1 = {float(t1):.6g} s lies past the scene's horizon: {which} at "
+            f"{horizon[late].min():.6g} s (Scene.horizon). An engagement strand models "
+            "n_entry tooth periods (its entry span then runs out of chain): end the solve "
+            "by the horizon, or build the scene with a larger n_entry."
+        )
+
+
+def strong_scene(scene: Scene, caller: str, members: bool = False) -> Scene:
     """The scene with every inexact array leaf strongly typed (a weakly typed leaf such as
     ``jnp.asarray(110.0)`` must not force a retrace); warns when it is not float64. Every
-    entry point passes its scene through here."""
+    entry point passes its scene through here: ``TypeError`` for anything but a
+    :class:`Scene`, ``ValueError`` for a stacked scene where one is expected (and the
+    reverse with ``members``)."""
+    if not isinstance(scene, Scene):
+        raise TypeError(
+            f"{caller}: scene must be a jaxchain Scene (built by jc.scenes.drive, "
+            f"jc.scenes.engagement, ...), got {type(scene).__name__}"
+        )
+    if not members and np.ndim(scene.q0) != 2:
+        raise ValueError(
+            f"{caller}: the scene is stacked (q0 has shape {np.shape(scene.q0)}, members "
+            "first): simulate an ensemble with jc.simulate_ensemble, or take one member"
+        )
     scene = jax.tree_util.tree_map(
         lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
         scene,

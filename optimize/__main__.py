@@ -34,11 +34,31 @@ def _floats(text: str) -> tuple[float, ...]:
         ) from None
 
 
-def fast_settings(s: Settings) -> Settings:
-    """A small run with the same code paths (CI, notebooks in fast mode)."""
-    s.periods, s.warmup, s.ensemble = 2, 1, (1.0,)
-    s.iterations, s.baseline_budget, s.remeasure_rtol = 3, 4, 1e-7
+# what --fast changes: a small run with the same code paths (CI, notebooks in fast mode)
+FAST = dict(periods=2, warmup=1, ensemble=(1.0,), iterations=3, baseline_budget=4)
+FAST_RTOL = 1e-7  # the re-measurement's tolerance (no option of its own)
+
+
+def fast_settings(s: Settings, given: frozenset[str] = frozenset()) -> Settings:
+    """``s`` made small (:data:`FAST`), keeping the options in ``given`` (set explicitly)."""
+    for name, value in FAST.items():
+        if name not in given:
+            setattr(s, name, value)
+    s.remeasure_rtol = FAST_RTOL
     return s
+
+
+def _writable(out: Path) -> None:
+    """``--out`` must be a folder this process can create and write in."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give a folder (it is created if missing)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as e:
+        raise ValueError(f"--out {out} is not a writable folder ({e.strerror or e})") from None
 
 
 def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
@@ -66,20 +86,24 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         help="engagement: entry tension [N] (default 1000); drive: load torque [N·m] (default 20)",
     )
     ap.add_argument("--fidelity", choices=["lumped", "clearance"], default=d.fidelity)
-    ap.add_argument("--periods", type=int, default=d.periods, help="tooth periods simulated")
+    ap.add_argument(
+        "--periods", type=int, default=None, help=f"tooth periods simulated (default {d.periods})"
+    )
     ap.add_argument(
         "--warmup",
         type=int,
-        default=d.warmup,
-        help="periods before the objective's window (start-up)",
+        default=None,
+        help=f"periods before the objective's window (start-up; default {d.warmup})",
     )
     ap.add_argument(
         "--ensemble",
         type=_floats,
-        default=d.ensemble,
-        help="speed factors of the operating points, e.g. 0.9,1,1.1",
+        default=None,
+        help="speed factors of the operating points, e.g. 0.9,1,1.1 (default "
+        + ",".join(f"{f:g}" for f in d.ensemble)
+        + ")",
     )
-    ap.add_argument("--iterations", type=int, default=d.iterations)
+    ap.add_argument("--iterations", type=int, default=None, help=f"default {d.iterations}")
     ap.add_argument("--optimizer", default=d.optimizer, help="optax optimizer (adam, sgd, ...)")
     ap.add_argument(
         "--learning-rate",
@@ -103,14 +127,25 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     ap.add_argument(
         "--baseline-budget",
         type=int,
-        default=d.baseline_budget,
-        help="simulations for the Nelder–Mead comparison (0 skips it)",
+        default=None,
+        help=f"simulations for the Nelder–Mead comparison (0 skips it; default "
+        f"{d.baseline_budget})",
     )
     ap.add_argument("--out", type=Path, default=Path("results/optimize"), help="output folder")
     ap.add_argument("--resume", action="store_true", help="continue from --out's checkpoint")
-    ap.add_argument("--fast", action="store_true", help="small smoke-test run")
+    ap.add_argument(
+        "--fast",
+        action="store_true",
+        help="small smoke-test run: "
+        + ", ".join(f"{k.replace('_', '-')} {v}" for k, v in FAST.items())
+        + " unless given",
+    )
     ap.add_argument("--quiet", action="store_true", help="no progress output")
     args = ap.parse_args(argv)
+    given = frozenset(k for k in FAST if getattr(args, k) is not None)
+    for k in FAST:
+        if getattr(args, k) is None:
+            setattr(args, k, getattr(d, k))
     default_load = 1000.0 if args.scene == "engagement" else 20.0
     s = Settings(
         scene=args.scene,
@@ -132,7 +167,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         baseline_budget=args.baseline_budget,
     )
     if args.fast or os.environ.get("JAXCHAIN_FAST"):
-        s = fast_settings(s)
+        s = fast_settings(s, given)
     return s, args
 
 
@@ -144,11 +179,14 @@ def main(argv=None) -> dict:
     cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", ".jax_cache")
     jax.config.update("jax_compilation_cache_dir", cache)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
-    from .run import run
+    import jaxchain as jc
+
+    from .run import RunFailed, run
 
     settings, args = parse(argv)
     try:
         settings.validate()
+        _writable(args.out)
     except ValueError as e:
         raise SystemExit(f"python -m optimize: error: {e}") from None
     try:
@@ -157,6 +195,8 @@ def main(argv=None) -> dict:
         sys.exit(130)
     except ValueError as e:  # bad input found while setting up (e.g. a mismatched resume)
         raise SystemExit(f"python -m optimize: error: {e}") from None
+    except (jc.SolveError, RunFailed) as e:  # a simulation failed: its message says why
+        raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
 
 
 if __name__ == "__main__":

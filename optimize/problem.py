@@ -46,12 +46,17 @@ class Settings:
         for name, lo in [("teeth", 7), ("driven_teeth", 7)]:
             if getattr(self, name) < lo:
                 raise ValueError(f"{name} must be >= {lo}, got {getattr(self, name)}")
-        positive = ["speed_rpm", "temperature", "dt", "learning_rate", "remeasure_rtol"]
-        for name in positive:
+        reals = ["speed_rpm", "load", "temperature", "dt", "learning_rate", "remeasure_rtol"]
+        for name in reals + ["contact_width"]:
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be a finite number, got {getattr(self, name)}")
+        for name in reals[:1] + reals[2:]:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if self.load < 0:
             raise ValueError(f"load must be >= 0, got {self.load}")
+        if self.baseline_budget < 0:
+            raise ValueError(f"baseline_budget must be >= 0 (0 skips it), got {self.baseline_budget}")
         if not 1 <= self.warmup + 1 <= self.periods:
             raise ValueError(
                 f"need 0 <= warmup < periods (window of at least one period), got warmup="
@@ -59,7 +64,7 @@ class Settings:
             )
         if self.iterations < 1:
             raise ValueError(f"iterations must be >= 1, got {self.iterations}")
-        if not self.ensemble or not all(0.2 <= f <= 5 for f in self.ensemble):
+        if not self.ensemble or not all(0.2 <= f <= 5 for f in self.ensemble):  # NaN fails
             raise ValueError(f"ensemble speed factors must be in [0.2, 5], got {self.ensemble}")
         if not hasattr(__import__("optax"), self.optimizer):
             raise ValueError(f"optimizer must name an optax optimizer, got {self.optimizer!r}")

@@ -79,6 +79,11 @@ def versions() -> dict:
     }
 
 
+class RunFailed(RuntimeError):
+    """The run cannot go on (a failed simulation, a non-finite objective); the message says
+    what to change."""
+
+
 # ---------------------------------------------------------------------- checkpoint
 def _state_to_json(state) -> list:
     return [np.asarray(leaf).tolist() for leaf in jax.tree_util.tree_leaves(state)]
@@ -86,19 +91,38 @@ def _state_to_json(state) -> list:
 
 def _state_from_json(template, leaves):
     flat, treedef = jax.tree_util.tree_flatten(template)
-    if len(flat) != len(leaves):
-        raise ValueError("checkpoint does not match this optimizer's state; start afresh")
+    shapes = [np.shape(t) for t in flat]
+    if len(flat) != len(leaves) or [np.shape(v) for v in leaves] != shapes:
+        raise ValueError(
+            f"--resume: the checkpoint's optimizer state does not match this optimizer's "
+            f"({len(leaves)} arrays vs {len(flat)}); delete {CHECKPOINT} to start afresh"
+        )
     return jax.tree_util.tree_unflatten(
         treedef,
         [jnp.asarray(v, dtype=jnp.asarray(t).dtype) for v, t in zip(leaves, flat, strict=True)],
     )
 
 
+_CHECKPOINT_KEYS = ("settings", "u", "opt_state", "history", "baselines", "evaluations", "timing")
+
+
 def load_checkpoint(out: Path, settings: Settings) -> dict | None:
+    """The checkpoint in ``out`` (None if there is none); ``ValueError`` naming the file
+    when it is damaged, foreign, or from other settings."""
     path = out / CHECKPOINT
     if not path.exists():
         return None
-    ck = json.loads(path.read_text())
+    fix = f"delete {path} (or use another --out) to start afresh"
+    try:
+        ck = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"--resume: {path} is not a readable checkpoint ({e}); {fix}") from None
+    missing = [k for k in _CHECKPOINT_KEYS if not isinstance(ck, dict) or k not in ck]
+    if missing or not isinstance(ck["settings"], dict):
+        raise ValueError(
+            f"--resume: {path} is not a checkpoint of python -m optimize (missing "
+            f"{missing or ['settings']}); {fix}"
+        )
     mine, theirs = settings.as_dict(), dict(ck["settings"])
     mine.pop("iterations"), theirs.pop("iterations")  # a resume may extend the run
     diff = {k: (theirs.get(k), v) for k, v in mine.items() if theirs.get(k) != v}
@@ -206,13 +230,13 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
             dt = time.perf_counter() - t
             bad = failures(members)
             if not np.isfinite(float(value)) or not np.all(np.isfinite(np.asarray(grad))):
-                raise RuntimeError(
+                raise RunFailed(
                     f"iteration {k}: non-finite objective or gradient at u={np.asarray(u)} "
                     f"(solver: {[m for m in bad if m] or 'successful'}); lower --dt or "
                     "--learning-rate"
                 )
             if any(bad):
-                raise RuntimeError(f"iteration {k}: the simulation failed: {bad[0]}")
+                raise RunFailed(f"iteration {k}: the simulation failed: {bad[0]}")
             gnorm = float(jnp.linalg.norm(grad))
             history.append(
                 {

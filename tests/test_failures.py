@@ -178,22 +178,26 @@ def float32_run():
         warnings.simplefilter("always")
         sc = small_engagement()
         sol = adaptive(sc)
+        allowed = adaptive(sc, allow_float32=True)
         dtype = sc.q0.dtype
-    return sc, sol, dtype, [str(w.message) for w in caught]
+    return sc, (sol, allowed), dtype, [str(w.message) for w in caught]
 
 
 @pytest.mark.slow
 def test_float32_failure_is_reported_not_silent(float32_run):
-    """In float32 positions near 0.05 m are resolved to ~4e-9 m, below the default atol
-    (1e-9 m) and comparable to contact deflections' regularization (1e-8 m): the adaptive
-    solve stalls. That must come back as a failure code, not as successful NaNs.
-    (Measured: max_steps_reached after 6000 steps where float64 needs 1256; the same
-    scene at a fixed 4 µs Tsit5 step runs in float32 with a peak 0.3 % off float64.)"""
-    _, sol, dtype, _ = float32_run
+    """A float32 solve is reported as ``float32_state`` (its forces can be wrong while it
+    looks successful) unless allowed. Allowed, this one still fails on its own: positions
+    near 0.05 m are resolved to ~4e-9 m, below the default atol (1e-9 m) and comparable to
+    contact deflections' regularization (1e-8 m), so the adaptive solve stalls — a failure
+    code, not successful NaNs. (Measured: max_steps_reached after 6000 steps where float64
+    needs 1256; the same scene at a fixed 4 µs Tsit5 step runs in float32 with a peak
+    0.3 % off float64.)"""
+    _, (sol, allowed), dtype, _ = float32_run
     assert dtype == jnp.float32
-    assert not sol.ok
-    assert sol.result in (jc.Result.max_steps_reached, jc.Result.step_size_collapse)
-    assert sol.message
+    assert_reported(sol, jc.Result.float32_state, "jax_enable_x64", "allow_float32=True")
+    assert not allowed.ok
+    assert allowed.result in (jc.Result.max_steps_reached, jc.Result.step_size_collapse)
+    assert allowed.message
 
 
 @pytest.mark.slow
@@ -282,6 +286,8 @@ def _modes(scene):
     slow_damping = eqx.tree_at(
         lambda s: s.impact_speed, with_law(scene, speed_floor=1e-5), jnp.asarray(1e-5)
     )
+    # the same strand with a chain of 500 N tensile strength: its 1000 N entry span breaks it
+    weak = eqx.tree_at(lambda s: s.tensile_strength, scene, jnp.asarray(500.0))
     return [
         ("nominal", scene, dict(max_steps=BUDGET), jc.Result.successful),
         ("fixed step above the limit", scene, dict(euler_opts, dt0=4e-6), jc.Result.diverged),
@@ -289,6 +295,7 @@ def _modes(scene):
         ("fixed step below the limit", scene, dict(euler_opts, dt0=2e-7), jc.Result.successful),
         ("stiffness starves", stiffened(scene, 100.0), dict(max_steps=BUDGET), None),
         ("damping floor too small", slow_damping, dict(max_steps=BUDGET), None),
+        ("chain overloaded", weak, dict(max_steps=BUDGET), jc.Result.chain_overloaded),
     ]
 
 
@@ -307,3 +314,57 @@ def test_simulate_and_the_design_objective_report_every_failure_identically(scen
             assert sim.result == expected, (name, seen[name], sim.message)
     assert seen["stiffness starves"][0] == "max_steps_reached", seen
     assert seen["damping floor too small"][0] == "max_steps_reached", seen
+
+
+# ------------------------------------------------------ wrong runs that look successful
+def test_link_tension_beyond_the_tensile_strength_is_reported(scene, nominal):
+    """A link tension above the chain's ISO 606 tensile strength is ``chain_overloaded``
+    (the solve keeps the largest link tension in its stats); the nominal strand carries
+    about 1.2 kN, far below 08B's 17.8 kN."""
+    sol, _ = nominal
+    assert float(scene.tensile_strength) == jc.ChainSpec.iso606("08B").tensile_strength
+    peak = float(sol.stats["peak_link_tension"])
+    assert 1000.0 < peak < 0.2 * float(scene.tensile_strength), peak
+    weak = eqx.tree_at(lambda s: s.tensile_strength, scene, jnp.asarray(0.9 * peak))
+    out = adaptive(weak)
+    assert_reported(out, jc.Result.chain_overloaded, "tensile strength", "larger chain")
+    with pytest.raises(jc.SolveError, match="chain_overloaded"):
+        jc.simulate(weak, T1, n_save=41, max_steps=BUDGET)
+
+
+def test_a_solve_past_the_scene_horizon_is_refused(scene):
+    """The strand has 3 entry rollers: 3 tooth periods of meshing. A longer solve raises
+    before anything is traced, at every entry point, saying what to change."""
+    assert float(scene.horizon) == pytest.approx(3 * PERIOD, rel=1e-12)
+    match = r"(?s)past the scene's horizon.*larger n_entry"
+    with pytest.raises(ValueError, match=match):
+        jc.simulate(scene, 4 * PERIOD)
+    with pytest.raises(ValueError, match=r"members \[1\] end"):
+        late = eqx.tree_at(lambda s: s.horizon, scene, jnp.asarray(0.1 * PERIOD))
+        jc.simulate_ensemble([scene, late], T1)
+    with pytest.raises(ValueError, match=match):
+        jc.design.soft_peak_force(scene, 4 * PERIOD)
+    assert np.isinf(float(jc.scenes.drive("08B", (9, 9), n_links=20, settle=False).horizon))
+
+
+def test_the_classification_orders_causes_first():
+    """A solve past its horizon or in float32 is reported as that cause whatever followed
+    from it; a diverged solve is ``diverged`` even when its tensions also broke the chain
+    (the flags each come from the solve's health observer or its configuration)."""
+    from jaxchain._result import classify
+
+    ok, bad = diffrax.RESULTS.successful, diffrax.RESULTS.max_steps_reached
+    t, f = jnp.asarray(True), jnp.asarray(False)
+    cases = [
+        (dict(), ok, t, t, jc.Result.successful),
+        (dict(within_strength=f), ok, t, t, jc.Result.chain_overloaded),
+        (dict(within_strength=f), ok, f, t, jc.Result.diverged),
+        (dict(within_strength=f), ok, t, f, jc.Result.chain_overloaded),
+        (dict(), ok, t, f, jc.Result.contact_slots_exceeded),
+        (dict(float_ok=False), bad, t, t, jc.Result.float32_state),
+        (dict(within_horizon=f, float_ok=False), bad, f, t, jc.Result.past_horizon),
+        (dict(within_horizon=f), ok, t, t, jc.Result.past_horizon),
+    ]
+    for flags, dr, healthy, slots, expected in cases:
+        got = classify(dr, healthy, slots, **flags)
+        assert got == expected, (flags, jc.result_names(got), jc.result_names(expected))

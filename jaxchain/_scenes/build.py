@@ -283,6 +283,8 @@ def assemble(
     friction: CoulombFriction | None,
     impact_speed: float,
     fidelity: str,
+    tensile_strength: float,
+    horizon: float = math.inf,
 ) -> Scene:
     """A :class:`Scene` from chain bodies, sprockets and boundary conditions."""
     return Scene(
@@ -300,5 +302,7 @@ def assemble(
         v0=jnp.asarray(bodies.v0),
         link_weights=jnp.asarray(bodies.link_weights),
         gravity=jnp.zeros(2),
+        horizon=jnp.asarray(horizon, dtype=float),
+        tensile_strength=jnp.asarray(tensile_strength, dtype=float),
         fidelity=fidelity,
     )

@@ -47,6 +47,16 @@ def check_positive(name, value, unit):
         raise ValueError(f"{name} must be > 0 {unit}, got {value}")
 
 
+def check_below_strength(chain: ChainSpec, what: str, tension: float, fix: str) -> None:
+    """A static tension must stay below the chain's tensile strength (the ISO 606 minimum):
+    beyond it the chain breaks, and its joints' stiffness law has no meaning."""
+    if tension >= chain.tensile_strength:
+        raise ValueError(
+            f"{what} is {tension:.4g} N, at or above the chain's tensile strength "
+            f"{chain.tensile_strength:.4g} N (ISO 606 minimum; a real chain breaks): {fix}"
+        )
+
+
 def stretch_of(chain: ChainSpec, fidelity: str, tension: float) -> float:
     """Roller spacing minus pitch of a chain under ``tension`` (for the initial layout)."""
     if fidelity == "lumped":

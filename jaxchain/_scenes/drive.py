@@ -12,6 +12,7 @@ from .._profile import ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
+    check_below_strength,
     check_positive,
     check_profile,
     contact_slots,
@@ -98,6 +99,12 @@ def drive(
         raise ValueError(
             f"profiles have {profiles[0].teeth}/{profiles[1].teeth} teeth, teeth={teeth}"
         )
+    check_below_strength(
+        chain,
+        "the tight span's static tension pretension + load_torque/R2",
+        pretension + load_torque / float(profiles[1].pitch_radius),
+        "lower load_torque or pretension, or choose a larger chain",
+    )
     if centre_distance is None and n_links is None:
         centre_distance = 40 * chain.pitch
     stretch = stretch_of(chain, fidelity, pretension)
@@ -170,5 +177,6 @@ def drive(
         friction=friction,
         impact_speed=impact_speed,
         fidelity=fidelity,
+        tensile_strength=chain.tensile_strength,
     )
     return equilibrate(scene, take_up=2 * pretension) if settle else scene

@@ -15,6 +15,7 @@ from .._profile import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
 from .common import (
+    check_below_strength,
     check_positive,
     check_profile,
     contact_slots,
@@ -69,6 +70,8 @@ def engagement(
     check_positive("tension", tension, "N (a slack entry span does not mesh)")
     if slack_tension < 0:
         raise ValueError(f"slack_tension must be >= 0 N, got {slack_tension}")
+    for name, value in (("tension", tension), ("slack_tension", slack_tension)):
+        check_below_strength(chain, name, value, f"lower {name}, or choose a larger chain")
     if profile is None:
         profile = ToothProfile.iso606(chain, teeth, form)
     check_profile(chain, profile)
@@ -143,5 +146,8 @@ def engagement(
         friction=friction,
         impact_speed=impact_speed,
         fidelity=fidelity,
+        tensile_strength=chain.tensile_strength,
+        # one entry roller meshes per tooth period: the strand runs out after n_entry
+        horizon=n_entry * 2 * math.pi / (teeth * omega),
     )
     return equilibrate(scene) if settle else scene
