@@ -7,6 +7,7 @@ from typing import ClassVar
 
 import equinox as eqx
 
+from ._checks import fields
 from ._materials import STEEL, Material
 from ._numerics import is_concrete
 
@@ -98,10 +99,7 @@ class ChainSpec(eqx.Module):
             "tensile_strength", "roller_link_mass", "pin_link_mass", "roller_mass",
             "roller_link_inertia", "pin_link_inertia", "roller_inertia",
         ]  # fmt: skip
-        for f in positive:
-            v = getattr(self, f)
-            if not v > 0:
-                raise ValueError(f"ChainSpec.{f} must be > 0, got {v}")
+        fields(self, [(f, lambda v: v > 0, "> 0") for f in positive])
         order = [
             ("pin_diameter", "bush_bore"),
             ("bush_bore", "bush_diameter"),
@@ -155,6 +153,16 @@ class ChainSpec(eqx.Module):
         Raises:
             ValueError: unknown designation (the message lists the known ones).
         """
+        if not isinstance(name, str):
+            raise TypeError(
+                f"ChainSpec.iso606: name must be an ISO 606 designation such as '08B', got "
+                f"{type(name).__name__} {name!r}; known chains: {', '.join(_ISO606)}"
+            )
+        if not isinstance(material, Material):
+            raise TypeError(
+                f"ChainSpec.iso606: material must be a jc.Material, got "
+                f"{type(material).__name__} {material!r}"
+            )
         key = name.strip().upper()
         if key not in _ISO606:
             raise ValueError(f"unknown ISO 606 chain {name!r}; known chains: {', '.join(_ISO606)}")

@@ -51,9 +51,44 @@ class Forces(NamedTuple):
     element_tension: Float[Array, " E"]  # tensions of tension-carrying elements [N]
 
 
+def _check_scene(scene, caller: str) -> None:
+    if not isinstance(scene, Scene):
+        raise TypeError(
+            f"{caller}: scene must be a jaxchain Scene (built by jc.scenes.*), got "
+            f"{type(scene).__name__}"
+        )
+    if np.ndim(scene.q0) != 2:
+        raise ValueError(
+            f"{caller}: the scene is stacked (q0 has shape {np.shape(scene.q0)}, members "
+            f"first); for an ensemble use jax.vmap(lambda s: jc.{caller}(..., s))(scenes)"
+        )
+
+
+def _check_state(y, scene, caller: str) -> None:
+    """``y`` must be one state of ``scene`` (a :class:`DriveState` of its shapes)."""
+    _check_scene(scene, caller)
+    if not isinstance(y, DriveState):
+        raise TypeError(
+            f"{caller}: y must be a jc.DriveState (e.g. jc.initial_state(scene)), got "
+            f"{type(y).__name__}"
+        )
+    n, ns = scene.n_bodies, len(scene.sprockets)
+    want = {"q": (n, 3), "v": (n, 3), "theta": (ns,), "omega": (ns,)}
+    for name, shape in want.items():
+        got = np.shape(getattr(y, name))
+        if got != shape:
+            batched = got[1:] == shape
+            raise ValueError(
+                f"{caller}: y.{name} must have shape {shape} for this scene ({n} bodies, "
+                f"{ns} sprockets), got {got}"
+                + ("; for a batch of states use jax.vmap over y" if batched else "")
+            )
+
+
 def initial_state(scene: Scene) -> DriveState:
     """The state the scene starts from (its bodies' q0, v0; the sprockets' angle0 and
     speed): what :func:`vector_field` takes as ``y`` at t0."""
+    _check_scene(scene, "initial_state")
     return DriveState(
         q=scene.q0,
         v=scene.v0,
@@ -79,6 +114,7 @@ def _points(q, v, body, offset, cs=None):
 
 def roller_kinematics(y: DriveState, scene: Scene) -> tuple[Array, Array]:
     """(R, 2) roller centres [m] and (R, 2) their velocities [m/s], world frame."""
+    _check_state(y, scene, "roller_kinematics")
     x, xd, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
     return x, xd
 
@@ -242,6 +278,7 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
 
 def vector_field(t, y: DriveState, scene: Scene) -> DriveState:
     """dy/dt: the equations of motion of the drive (pure; diffrax's ``ODETerm`` target)."""
+    _check_state(y, scene, "vector_field")
     return rates(t, y, scene, forces(t, y, scene))
 
 
@@ -289,6 +326,7 @@ def energy(t, y: DriveState, scene: Scene) -> dict[str, Array]:
     """Mechanical energy [J]: kinetic (chain bodies and driven sprockets), elastic (link
     springs, joint contacts, roller/tooth contacts) and the anchors' guide springs."""
     del t
+    _check_state(y, scene, "energy")
     inertia = jnp.stack([scene.mass, scene.mass, scene.inertia], -1)
     kinetic = 0.5 * jnp.sum(inertia * y.v**2)
     for k, spr in enumerate(scene.sprockets):

@@ -29,6 +29,7 @@ from collections.abc import Sequence
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._numerics import cross2
@@ -72,9 +73,46 @@ class GapShape(eqx.Module):
         )  # fmt: skip
 
 
+def _profile(profile, caller: str):
+    """``profile`` if it is one tooth profile (scalar shape leaves)."""
+    if not isinstance(profile, (ToothProfile, GapShape)):
+        raise TypeError(
+            f"{caller}: profile must be a jc.ToothProfile, got {type(profile).__name__} "
+            f"{profile!r}"
+        )
+    names = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter", "pitch")
+    shaped = {n: np.shape(getattr(profile, n)) for n in names if np.shape(getattr(profile, n))}
+    if shaped:
+        raise ValueError(
+            f"{caller}: the profile's shape parameters must be scalars, got shapes {shaped}; "
+            "for a batch of profiles use jax.vmap over the profile"
+        )
+    return profile
+
+
+def _point(point, caller: str) -> Array:
+    """``point`` as a float array of shape (2,), or ``ValueError`` saying how to batch."""
+    point = jnp.asarray(point)
+    if point.shape != (2,):
+        batch = point.ndim > 1 and point.shape[-1] == 2
+        raise ValueError(
+            f"{caller}: point must be one roller centre (x, y) of shape (2,), got shape "
+            f"{point.shape}"
+            + (
+                f"; for many points use jax.vmap: jax.vmap(lambda x: jc.{caller}(profile, "
+                "x))(points)"
+                if batch
+                else ""
+            )
+        )
+    return point if jnp.issubdtype(point.dtype, jnp.floating) else point.astype(float)
+
+
 def nearest_gap(profile: ToothProfile | GapShape, point: Float[Array, 2]) -> Array:
-    """Index k (integer array, in [0, z)) of the tooth gap nearest to ``point`` (sprocket frame)."""
-    z = profile.teeth
+    """Index k (integer array, in [0, z)) of the tooth gap nearest to ``point`` (sprocket
+    frame); 0 for a non-finite point (an index has no NaN: the distance it feeds is NaN)."""
+    point = _point(point, "nearest_gap")
+    z = _profile(profile, "nearest_gap").teeth
     theta = jnp.arctan2(point[1], point[0])
     k = jnp.round(jax.lax.stop_gradient(theta) * z / (2 * jnp.pi))
     return jnp.mod(k, z).astype(jnp.int32)
@@ -105,9 +143,9 @@ def signed_distance(
     profile: ToothProfile | GapShape, point: Float[Array, 2]
 ) -> tuple[Float[Array, ""], Float[Array, 2]]:
     """Signed distance [m] from ``point`` (sprocket frame) to the tooth material, positive in
-    the gap, and its gradient (unit normal, sprocket frame)."""
-    point = jnp.asarray(point)
-    z = profile.teeth
+    the gap, and its gradient (unit normal, sprocket frame); NaN (both) for a NaN point."""
+    point = _point(point, "signed_distance")
+    z = _profile(profile, "signed_distance").teeth
     k = nearest_gap(profile, point)
     rot = _gap_rotation(k, z, point.dtype)
     local = rot.T @ point  # gap-fixed frame
@@ -165,7 +203,8 @@ def signed_distance(
     pick = jnp.arange(3) == jnp.argmin(jnp.abs(jax.lax.stop_gradient(vals)))
     sd = jnp.sum(jnp.where(pick, vals, 0.0))
     n_local = jnp.sum(jnp.where(pick[:, None], norms, 0.0), 0) * jnp.stack([1.0, flip])
-    return sd, rot @ n_local
+    # NaN in, NaN out: a NaN point gets no plausible (fallback) normal
+    return sd, jnp.where(jnp.isnan(sd), sd, rot @ n_local)
 
 
 def _gap_sign(q, c, jn, f, kc, ra, ri, re):
@@ -201,5 +240,6 @@ def gap_contact(
     ``point`` and in the profile's array leaves; jit- and vmap-able (vmap over points, or
     over profiles built with the same ``teeth``, or over a :class:`GapShape` stack).
     """
+    profile, point = _profile(profile, "gap_contact"), _point(point, "gap_contact")
     sd, normal = signed_distance(profile, point)
     return profile.roller_radius - sd, normal

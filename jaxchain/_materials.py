@@ -25,12 +25,16 @@ class Material(eqx.Module):
 
         if not is_concrete(self):
             return
-        if not self.youngs_modulus > 0:
-            raise ValueError(f"youngs_modulus must be > 0 Pa, got {self.youngs_modulus}")
-        if not -1.0 < self.poisson_ratio < 0.5:
-            raise ValueError(f"poisson_ratio must be in (-1, 0.5), got {self.poisson_ratio}")
-        if not self.density > 0:
-            raise ValueError(f"density must be > 0 kg/m³, got {self.density}")
+        from ._checks import fields
+
+        fields(
+            self,
+            [
+                ("youngs_modulus", lambda v: v > 0, "> 0 Pa"),
+                ("poisson_ratio", lambda v: (v > -1.0) & (v < 0.5), "in (-1, 0.5)"),
+                ("density", lambda v: v > 0, "> 0 kg/m³"),
+            ],
+        )
 
 
 #: Through-hardened chain/sprocket steel (E = 206 GPa, ν = 0.3, ρ = 7850 kg/m³).

@@ -152,9 +152,9 @@ def classify(
 
 def raise_if_failed(result: Result, payload, caller: str):
     """``payload`` if every element of ``result`` is successful. Otherwise, outside a trace,
-    raise :class:`SolveError` (a ``RuntimeError``) with what happened and what to change (naming the failed
-    members of a batched result); inside the caller's ``jit``/``grad``, ``payload`` with a
-    runtime error attached (``eqx.error_if``)."""
+    raise :class:`SolveError` (a ``RuntimeError``) with what happened and what to change
+    (naming the failed members of a batched result); inside the caller's
+    ``jit``/``grad``, ``payload`` with a runtime error attached (``eqx.error_if``)."""
     failed = jnp.any(result != Result.successful)
     if isinstance(failed, jax.core.Tracer):
         return result.error_if(payload, failed)

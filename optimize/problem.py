@@ -56,7 +56,9 @@ class Settings:
         if self.load < 0:
             raise ValueError(f"load must be >= 0, got {self.load}")
         if self.baseline_budget < 0:
-            raise ValueError(f"baseline_budget must be >= 0 (0 skips it), got {self.baseline_budget}")
+            raise ValueError(
+                f"baseline_budget must be >= 0 (0 skips it), got {self.baseline_budget}"
+            )
         if not 1 <= self.warmup + 1 <= self.periods:
             raise ValueError(
                 f"need 0 <= warmup < periods (window of at least one period), got warmup="

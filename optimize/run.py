@@ -167,9 +167,9 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     """Optimize, re-measure, write ``out``/results.json and figures; returns the results."""
     t_wall = time.perf_counter()
     out = Path(out)
-    problem = make_problem(settings)
     out.mkdir(parents=True, exist_ok=True)
-    ck = load_checkpoint(out, settings) if resume else None
+    ck = load_checkpoint(out, settings) if resume else None  # before any work: a bad one
+    problem = make_problem(settings)
     if resume and ck is None:
         log(f"--resume: no checkpoint in {out}; starting afresh", quiet)
     forms = iso_forms(problem)

@@ -77,3 +77,46 @@ def test_bad_options_are_explained():
         main(["--optimizer", "nonsense", "--quiet"])
     s, _ = parse(["--ensemble", "0.9,1,1.1"])
     assert s.ensemble == (0.9, 1.0, 1.1)
+
+
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["--speed", "nan"], "speed_rpm must be a finite number, got nan"),
+        (["--load", "inf"], "load must be a finite number, got inf"),
+        (["--learning-rate", "-1"], "learning_rate must be > 0"),
+        (["--baseline-budget", "-3"], "baseline_budget must be >= 0"),
+        (["--ensemble", "1,nan"], r"ensemble speed factors must be in \[0.2, 5\]"),
+        (["--dt", "1e-3"], "dt must be <= 2e-5 s"),
+        (["--out", "README.md"], "README.md is a file; give a folder"),
+        (["--out", "/proc/no/such"], "is not a writable folder"),
+    ],
+)
+def test_user_errors_exit_with_a_message_not_a_traceback(argv, match):
+    with pytest.raises(SystemExit, match=match) as e:
+        main(["--fast", "--quiet", *argv])
+    assert str(e.value).startswith("python -m optimize: error: ")
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("{not json", r"checkpoint.json is not a readable checkpoint .*delete .*checkpoint.json"),
+        ('{"weights": [1, 2]}', r"is not a checkpoint of python -m optimize \(missing \['settings'"),
+        ("", "is not a readable checkpoint"),
+    ],
+)
+def test_a_damaged_or_foreign_checkpoint_is_named_with_the_fix(tmp_path, text, match):
+    (tmp_path / "checkpoint.json").write_text(text)
+    with pytest.raises(SystemExit, match=match):
+        main(["--fast", "--quiet", "--out", str(tmp_path), "--resume"])
+
+
+def test_fast_keeps_the_options_given():
+    """--fast makes the run small, but an option given explicitly is not overridden."""
+    s, _ = parse(["--fast"])
+    assert (s.periods, s.iterations, s.ensemble, s.baseline_budget) == (2, 3, (1.0,), 4)
+    s, _ = parse(["--fast", "--periods", "3", "--iterations", "5", "--ensemble", "0.9,1.1"])
+    assert (s.periods, s.iterations, s.ensemble, s.baseline_budget) == (3, 5, (0.9, 1.1), 4)
+    s, _ = parse([])
+    assert (s.periods, s.iterations, s.ensemble) == (2, 25, (0.9, 1.0, 1.1))

@@ -7,9 +7,9 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, ArrayLike
 
+from .._checks import fields
 from .._numerics import is_concrete, safe_pow, smooth_ramp
 
 __all__ = [
@@ -22,12 +22,10 @@ __all__ = [
 
 
 def check_fields(module, checks) -> None:
-    """Raise ValueError for the first field whose value (every element, if an array)
-    fails its check. ``checks``: (field name, predicate on a NumPy array, range text)."""
-    for name, ok, rng in checks:
-        v = np.asarray(getattr(module, name), dtype=float)
-        if not np.all(ok(v)):
-            raise ValueError(f"{type(module).__name__}.{name} must be {rng}, got {v}")
+    """Raise for the first field whose value (every element, if an array) is not a finite
+    real number passing its check (:func:`jaxchain._checks.fields`). ``checks``: (field
+    name, predicate on a NumPy array, range text)."""
+    fields(module, checks)
 
 
 class AbstractContactLaw(eqx.Module):
@@ -90,9 +88,12 @@ class AbstractHysteresisLaw(AbstractContactLaw):
         """χ(e) [-] of the law."""
 
     def normal_force(self, depth, depth_rate, impact_speed):
+        depth = jnp.asarray(depth)
         v0 = jnp.sqrt(jnp.asarray(impact_speed) ** 2 + self.speed_floor**2)
         bracket = 1.0 + self.damping_factor() * jnp.asarray(depth_rate) / v0
-        return self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
+        force = self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
+        # NaN in, NaN out: a NaN depth must not read as "no contact" (zero force)
+        return jnp.where(jnp.isnan(depth), depth, force)
 
     def effective_restitution(self) -> float:
         """Coefficient of restitution this law actually produces in an isolated impact

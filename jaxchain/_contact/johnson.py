@@ -144,7 +144,8 @@ class JohnsonCylinder(AbstractHysteresisLaw):
         the inverse of ``elastic_force`` (unregularized) within the theory's range."""
         s = jnp.asarray(force) / self._scale
         pos = s > 0
-        return jnp.where(pos, self.clearance * _g(jnp.where(pos, s, 1.0)), 0.0)
+        delta = jnp.where(pos, self.clearance * _g(jnp.where(pos, s, 1.0)), 0.0)
+        return jnp.where(jnp.isnan(s), s, delta)  # NaN in, NaN out
 
     def tangent_stiffness(self, force: ArrayLike) -> Array:
         """dF/dδ at ``force`` > 0 [N/m]: πLE*/g'(s), g'(s) = ln(4/s) − 2."""

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike
+
+from .._numerics import is_concrete
 
 __all__ = ["hertz_stiffness", "effective_radius"]
 
@@ -12,6 +15,15 @@ def effective_radius(radius1: ArrayLike, radius2: ArrayLike, *, internal: bool =
     """R* of two cylinders [m]: R₁R₂/(R₁ + R₂) external; R₁R₂/(R₂ − R₁) for a cylinder of
     radius R₁ inside a hole of radius R₂ > R₁ (internal)."""
     r1, r2 = jnp.asarray(radius1), jnp.asarray(radius2)
+    if is_concrete(r1, r2):
+        for name, r in (("radius1", r1), ("radius2", r2)):
+            if not np.all(np.isfinite(r) & (np.asarray(r) > 0)):
+                raise ValueError(f"effective_radius: {name} must be finite and > 0 m, got {r}")
+        if internal and not np.all(np.asarray(r2) > np.asarray(r1)):
+            raise ValueError(
+                "effective_radius: an internal pair needs the hole larger than the cylinder, "
+                f"radius2 > radius1, got radius1={r1}, radius2={r2}"
+            )
     return r1 * r2 / ((r2 - r1) if internal else (r1 + r2))
 
 

@@ -19,6 +19,7 @@ from typing import Literal, NamedTuple
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
@@ -57,6 +58,8 @@ def joint_law(
 ) -> JohnsonCylinder:
     """Johnson's conformal law for the pin/bush (``"pin"``) or bush/roller pair;
     ``width``: its contact-onset regularization half-width [m] (default the law's)."""
+    chain = _chain(chain)
+    checks.choice("which", which, ("pin", "roller"))
     estar = effective_modulus(material, material)
     if which == "pin":
         clearance, length = chain.pin_clearance, chain.inner_width + 2 * chain.plate_thickness
@@ -74,9 +77,14 @@ def joint_law(
 def _width(width: float | None) -> dict:
     if width is None:
         return {}
-    if not (np.isfinite(width) and width >= 0):
-        raise ValueError(f"width must be a finite onset half-width >= 0 m, got {width}")
+    width = checks.real("width", width, lo=0.0, unit="m (the contact-onset half-width)")
     return {"width": jnp.asarray(width, dtype=float)}
+
+
+def _chain(chain) -> ChainSpec:
+    if isinstance(chain, str):
+        return ChainSpec.iso606(chain)
+    return checks.instance("chain", chain, ChainSpec, "a jc.ChainSpec or an ISO 606 designation")
 
 
 def roller_law(
@@ -99,6 +107,7 @@ def roller_law(
     ``width``: the contact-onset regularization half-width [m] (default the law's 10 nm;
     a design model may resolve the onset over a few µm, see ``python -m optimize``).
     """
+    chain = _chain(chain)
     d1 = chain.roller_diameter
     clearance = 0.005 * d1 + 0.0345e-3 * (1e3 * d1) ** (1 / 3)
     return JohnsonCylinder(

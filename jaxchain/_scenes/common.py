@@ -7,22 +7,71 @@ import math
 
 import numpy as np
 
+from .. import _checks as checks
 from .._chain import ChainSpec
 from .._profile import ToothProfile
 from .build import joint_law, link_stiffness
 
 __all__ = [
     "resolve_chain",
+    "check_common",
     "disc_inertia",
     "contact_slots",
-    "check_positive",
     "check_profile",
     "stretch_of",
 ]
 
 
 def resolve_chain(chain: ChainSpec | str) -> ChainSpec:
-    return ChainSpec.iso606(chain) if isinstance(chain, str) else chain
+    """A :class:`ChainSpec` from itself or an ISO 606 designation ("08B")."""
+    if isinstance(chain, str):
+        return ChainSpec.iso606(chain)
+    if not isinstance(chain, ChainSpec):
+        raise TypeError(
+            f"chain must be an ISO 606 designation such as '08B' or a jaxchain ChainSpec, "
+            f"got {type(chain).__name__} {chain!r}"
+        )
+    return chain
+
+
+def check_common(
+    *,
+    speed_rpm,
+    fidelity,
+    form,
+    restitution,
+    friction,
+    impact_speed,
+    rollers_on_bush,
+    roller_contact,
+    settle,
+    link_damping,
+) -> float:
+    """The arguments every scene builder shares; returns speed_rpm as a float."""
+    from .._contact.base import AbstractContactLaw
+    from .._contact.friction import CoulombFriction
+
+    speed = checks.real("speed_rpm", speed_rpm, lo=0.0, lo_open=True, unit="rpm")
+    checks.choice("fidelity", fidelity, ("lumped", "clearance"))
+    checks.choice("form", form, ("min", "max", "mid"))
+    checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
+    if friction is not None:
+        checks.instance(
+            "friction", friction, CoulombFriction, "a jc.contact.CoulombFriction or None"
+        )
+    checks.real("impact_speed", impact_speed, lo=0.0, lo_open=True, unit="m/s")
+    checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped"))
+    if roller_contact is not None:
+        checks.instance(
+            "roller_contact",
+            roller_contact,
+            AbstractContactLaw,
+            "a normal contact law (jc.contact.JohnsonCylinder, LankaraniNikravesh, ...; "
+            "jc.scenes.roller_law builds the default) or None",
+        )
+    checks.flag("settle", settle)
+    checks.real("link_damping", link_damping, lo=0.0, unit="(damping ratio)")
+    return speed
 
 
 def disc_inertia(chain: ChainSpec, profile: ToothProfile, density: float = 7850.0) -> float:
@@ -40,11 +89,6 @@ def contact_slots(wrap: int, n_rollers: int) -> int | None:
     with all 40 than with 16 slots (the 40-link (9, 18) drive)."""
     slots = int(wrap) + 6
     return None if 2 * slots > n_rollers else slots
-
-
-def check_positive(name, value, unit):
-    if not np.all(np.asarray(value) > 0):
-        raise ValueError(f"{name} must be > 0 {unit}, got {value}")
 
 
 def check_below_strength(chain: ChainSpec, what: str, tension: float, fix: str) -> None:

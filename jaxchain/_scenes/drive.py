@@ -5,15 +5,16 @@ from __future__ import annotations
 import math
 from typing import Literal
 
+from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
-from .._profile import ToothProfile
+from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
     check_below_strength,
-    check_positive,
+    check_common,
     check_profile,
     contact_slots,
     disc_inertia,
@@ -85,15 +86,34 @@ def drive(
             the load ramped in (default True).
     """
     chain = resolve_chain(chain)
-    z1, z2 = teeth
-    check_positive("speed_rpm", speed_rpm, "rpm (the driver must turn)")
-    if load_torque < 0:
-        raise ValueError(f"load_torque must be >= 0 N·m, got {load_torque}")
-    if pretension < 0:
-        raise ValueError(f"pretension must be >= 0 N, got {pretension}")
+    z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
+    for k, z in enumerate((z1, z2)):
+        checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
+    speed_rpm = check_common(
+        speed_rpm=speed_rpm,
+        fidelity=fidelity,
+        form=form,
+        restitution=restitution,
+        friction=friction,
+        impact_speed=impact_speed,
+        rollers_on_bush=rollers_on_bush,
+        roller_contact=roller_contact,
+        settle=settle,
+        link_damping=link_damping,
+    )
+    load_torque = checks.real("load_torque", load_torque, lo=0.0, unit="N·m")
+    pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
+    if centre_distance is not None:
+        centre_distance = checks.real(
+            "centre_distance", centre_distance, lo=0.0, lo_open=True, unit="m"
+        )
+    if load_ramp is not None:
+        load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
     if profiles is None:
         profiles = (ToothProfile.iso606(chain, z1, form), ToothProfile.iso606(chain, z2, form))
+    profiles = checks.pair("profiles", profiles, 2, "tooth profiles (driver, driven)")
     for k, p in enumerate(profiles):
+        checks.instance(f"profiles[{k}]", p, ToothProfile, "a jc.ToothProfile")
         check_profile(chain, p, f"profiles[{k}]")
     if (profiles[0].teeth, profiles[1].teeth) != (z1, z2):
         raise ValueError(
@@ -145,7 +165,7 @@ def drive(
     )
     if driven_inertia is None:
         driven_inertia = disc_inertia(chain, profiles[1])
-    check_positive("driven_inertia", driven_inertia, "kg·m²")
+    checks.real("driven_inertia", driven_inertia, lo=0.0, lo_open=True, unit="kg·m²")
     if load_ramp is None:  # a settled start carries the full load already
         load_ramp = 0.0 if settle else 2 * math.pi / omega1
     sprockets = (

@@ -8,15 +8,16 @@ from typing import Literal
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
-from .._profile import ToothProfile
+from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
 from .common import (
     check_below_strength,
-    check_positive,
+    check_common,
     check_profile,
     contact_slots,
     disc_inertia,
@@ -66,14 +67,30 @@ def engagement(
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = resolve_chain(chain)
-    check_positive("speed_rpm", speed_rpm, "rpm (the sprocket must turn)")
-    check_positive("tension", tension, "N (a slack entry span does not mesh)")
-    if slack_tension < 0:
-        raise ValueError(f"slack_tension must be >= 0 N, got {slack_tension}")
+    checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
+    speed_rpm = check_common(
+        speed_rpm=speed_rpm,
+        fidelity=fidelity,
+        form=form,
+        restitution=restitution,
+        friction=friction,
+        impact_speed=impact_speed,
+        rollers_on_bush=rollers_on_bush,
+        roller_contact=roller_contact,
+        settle=settle,
+        link_damping=link_damping,
+    )
+    tension = checks.real(
+        "tension", tension, lo=0.0, lo_open=True, unit="N (a slack entry span does not mesh)"
+    )
+    slack_tension = checks.real("slack_tension", slack_tension, lo=0.0, unit="N")
     for name, value in (("tension", tension), ("slack_tension", slack_tension)):
         check_below_strength(chain, name, value, f"lower {name}, or choose a larger chain")
+    if span_stiffness is not None:
+        checks.real("span_stiffness", span_stiffness, lo=0.0, lo_open=True, unit="N/m")
     if profile is None:
         profile = ToothProfile.iso606(chain, teeth, form)
+    checks.instance("profile", profile, ToothProfile, "a jc.ToothProfile or None")
     check_profile(chain, profile)
     if profile.teeth != teeth:
         raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
@@ -118,7 +135,7 @@ def engagement(
         damping_ratio=link_damping,
         link_load=tension,
     )
-    k_span = span_stiffness or link_stiffness(chain, tension) / 50
+    k_span = link_stiffness(chain, tension) / 50 if span_stiffness is None else span_stiffness
     ends = np.asarray(bodies.roller_body)[[0, -1]]
     m_end = np.asarray(bodies.mass)[ends]
     anchors = Anchors(

@@ -37,7 +37,9 @@ import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import ArrayLike
 
+from .. import _checks as checks
 from .._dynamics import DriveState, forces
+from .._numerics import is_concrete
 from .._scene import LinkSprings, Scene
 
 __all__ = ["equilibrate", "resettle"]
@@ -244,6 +246,11 @@ def equilibrate(
             force (tension, take-up/2 or load torque over pitch radius).
         relax_steps: most steps of the dynamic relaxation (each one force evaluation).
     """
+    checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
+    take_up = checks.real("take_up", take_up, lo=0.0, unit="N")
+    checks.integer("max_steps", max_steps, lo=1)
+    checks.integer("relax_steps", relax_steps, lo=0)
+    checks.real("tolerance", tolerance, lo=0.0, lo_open=True, unit="(relative force residual)")
     moving = scene
     scene = _at_rest(scene)
     ns = len(scene.sprockets)
@@ -319,6 +326,9 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
     :func:`equilibrate` (with the same ``take_up``) at the current parameter values.
     Works traced (inside ``jit``/``grad``/``vmap``).
     """
+    checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
+    if is_concrete(take_up):
+        checks.real("take_up", take_up, lo=0.0, unit="N")
     rest = _at_rest(scene)
     ns, n = len(scene.sprockets), scene.n_bodies
     pitch = scene.sprockets[0].profile.pitch
