@@ -11,7 +11,7 @@ from ._checks import fields
 from ._materials import STEEL, Material
 from ._numerics import is_concrete
 
-__all__ = ["ChainSpec"]
+__all__ = ["ChainSpec", "as_chain"]
 
 # ISO 606:2015 table 1 (single strand), millimetres and kN:
 #   pitch p, roller diameter d1 (max), inner width b1 (min), pin diameter d2 (max),
@@ -211,3 +211,16 @@ class ChainSpec(eqx.Module):
             pin_link_inertia=2 * j_op + 2 * (j_p + m_p * offset),
             roller_inertia=j_r,
         )
+
+
+def as_chain(chain: ChainSpec | str) -> ChainSpec:
+    """A :class:`ChainSpec` from itself or an ISO 606 designation ("08B"); ``TypeError``
+    for anything else."""
+    if isinstance(chain, str):
+        return ChainSpec.iso606(chain)
+    if not isinstance(chain, ChainSpec):
+        raise TypeError(
+            "chain must be an ISO 606 designation such as '08B' or a jaxchain ChainSpec, "
+            f"got {type(chain).__name__} {chain!r}"
+        )
+    return chain

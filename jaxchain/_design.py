@@ -3,6 +3,7 @@ objective computed inside the ODE solve (see :mod:`jaxchain.design`)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
@@ -13,6 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from . import _checks as checks
 from ._chain import ChainSpec
 from ._ensemble import stack
 from ._numerics import is_concrete
@@ -55,19 +57,23 @@ class DesignSpace(eqx.Module):
     upper: Float[Array, " 4"]
 
     def __init__(self, template: ToothProfile, lower: ArrayLike, upper: ArrayLike):
+        checks.instance("template", template, ToothProfile, "a jc.ToothProfile")
         lo = np.asarray(lower, dtype=float)
         hi = np.asarray(upper, dtype=float)
         if lo.shape != (4,) or hi.shape != (4,):
             raise ValueError(f"lower and upper must have shape (4,) for {PARAMETERS}")
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+            raise ValueError(f"lower and upper must be finite, got {lo.tolist()}, {hi.tolist()}")
         if not np.all(hi > lo):
             bad = [n for n, a, b in zip(PARAMETERS, lo, hi, strict=True) if not b > a]
             raise ValueError(f"upper must exceed lower for every parameter; not for {bad}")
+        _check_box(template, lo, hi)
         self.template = template
         self.lower = jnp.asarray(lo)
         self.upper = jnp.asarray(hi)
 
     @classmethod
-    def iso606(cls, chain: ChainSpec, teeth: int) -> DesignSpace:
+    def iso606(cls, chain: ChainSpec | str, teeth: int) -> DesignSpace:
         """The ISO 606 minimum/maximum limits of ``chain`` on a ``teeth``-tooth sprocket."""
         lim = iso606_limits(chain, teeth)
         template = ToothProfile.iso606(chain, teeth, "mid")
@@ -75,7 +81,7 @@ class DesignSpace(eqx.Module):
 
     def values(self, u: ArrayLike) -> Float[Array, " 4"]:
         """The parameters (SI) at coordinate ``u``."""
-        return self.lower + (self.upper - self.lower) * jax.nn.sigmoid(jnp.asarray(u))
+        return self.lower + (self.upper - self.lower) * jax.nn.sigmoid(_coordinate(u))
 
     def profile(self, u: ArrayLike) -> ToothProfile:
         """The tooth profile at coordinate ``u`` (traceable)."""
@@ -89,16 +95,68 @@ class DesignSpace(eqx.Module):
     def coordinates(self, profile: ToothProfile | ArrayLike, margin: float = 1e-6) -> Array:
         """The coordinate ``u`` of a profile (or of 4 parameter values) in the box; values
         on or beyond a bound are pulled ``margin`` (as a fraction of the range) inside."""
+        checks.real("margin", margin, lo=0.0, hi=0.5, lo_open=True, hi_open=True)
         if isinstance(profile, ToothProfile):
+            t = self.template
+            if profile.teeth != t.teeth or not np.allclose(
+                [profile.pitch, profile.roller_diameter], [t.pitch, t.roller_diameter]
+            ):
+                raise ValueError(
+                    f"coordinates: the profile ({profile.teeth} teeth, pitch "
+                    f"{float(profile.pitch):.6g} m) is not of this design space's sprocket "
+                    f"({t.teeth} teeth, pitch {float(t.pitch):.6g} m)"
+                )
             x = jnp.stack([getattr(profile, n) for n in PARAMETERS])
         else:
-            x = jnp.asarray(profile, dtype=float)
+            x = _coordinate(profile, "the parameter values")
         frac = jnp.clip((x - self.lower) / (self.upper - self.lower), margin, 1 - margin)
         return jnp.log(frac) - jnp.log1p(-frac)
 
     def fraction(self, u: ArrayLike) -> Float[Array, " 4"]:
         """Where each parameter sits in its range (0 = lower, 1 = upper)."""
-        return jax.nn.sigmoid(jnp.asarray(u))
+        return jax.nn.sigmoid(_coordinate(u))
+
+
+def _coordinate(u, what: str = "u") -> Array:
+    """``u`` as a float array of shape (4,), or ``ValueError`` saying how to batch."""
+    u = jnp.asarray(u)
+    if u.shape != (4,):
+        hint = "; for many points use jax.vmap over u" if u.shape[-1:] == (4,) else ""
+        raise ValueError(
+            f"{what} must have shape (4,), one value per parameter {PARAMETERS}, got shape "
+            f"{u.shape}{hint}"
+        )
+    if not (jnp.issubdtype(u.dtype, jnp.floating) or jnp.issubdtype(u.dtype, jnp.integer)):
+        raise TypeError(f"{what} must be real, got dtype {u.dtype}")
+    return u.astype(jnp.result_type(float)) if jnp.issubdtype(u.dtype, jnp.integer) else u
+
+
+def _check_box(template: ToothProfile, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Every corner of the box must be a valid profile once its tip circle is lowered to
+    where the flanks meet (what the traced geometry does): a box reaching outside the
+    profile's own validity (a seat smaller than the roller, an angle in degrees) would
+    hand the optimizer outlines that do not exist."""
+    from ._profile import _flank_centre_line_radius, _np_geometry_of
+
+    for pick in itertools.product((0, 1), repeat=4):
+        vals = {n: (lo, hi)[i][k] for k, (n, i) in enumerate(zip(PARAMETERS, pick, strict=True))}
+        kw = dict(
+            teeth=template.teeth,
+            pitch=float(template.pitch),
+            roller_diameter=float(template.roller_diameter),
+            **vals,
+        )
+        try:
+            reach = 2 * _flank_centre_line_radius(_np_geometry_of(**kw), vals["flank_radius"])
+            kw["tip_diameter"] = min(vals["tip_diameter"], reach * (1 - 1e-9))
+            ToothProfile(**kw)
+        except (ValueError, FloatingPointError) as e:
+            corner = ", ".join(
+                f"{n} {'upper' if i else 'lower'}" for n, i in zip(PARAMETERS, pick, strict=True)
+            )
+            raise ValueError(
+                f"the design box reaches outside valid tooth profiles: at its corner ({corner}) {e}"
+            ) from None
 
 
 class PeakForce(NamedTuple):
@@ -133,11 +191,13 @@ def soft_peak_force(
     ``simulate`` classifies the same solve (:class:`ProfileObjective` raises).
     """
     opts = with_options(options, solve_options, "soft_peak_force")
-    if is_concrete((t1, t_start, temperature)):
-        if not float(temperature) > 0:
-            raise ValueError(f"temperature must be > 0 N, got {temperature}")
-        if not 0.0 <= float(t_start) < float(t1):
-            raise ValueError(f"t_start must be in [0, t1 = {float(t1):.6g}) s, got {t_start}")
+    if is_concrete((t1, t_start, temperature, reference, rise)):
+        t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
+        checks.real("temperature", temperature, lo=0.0, lo_open=True, unit="N")
+        checks.real("reference", reference, unit="N")
+        checks.real("t_start", t_start, lo=0.0, hi=t1, hi_open=True, unit=f"s (t1 = {t1:.6g} s)")
+        if rise is not None:
+            checks.real("rise", rise, lo=0.0, unit="s (0: a step)")
     resolved = opts.resolve(0.0, t1)  # before t1 becomes an array: dt's step count
     t0 = jnp.asarray(0.0, dtype=float)
     t1 = jnp.asarray(t1, dtype=float)
@@ -240,12 +300,21 @@ class ProfileObjective:
         options: SolveOptions | None = None,
         **solve_options,
     ):
-        if combine not in ("mean", "max"):
-            raise ValueError(f"combine must be 'mean' or 'max', got {combine!r}")
-        if not temperature > 0:
-            raise ValueError(f"temperature must be > 0 N, got {temperature}")
-        if not 0.0 <= t_start < t1:
-            raise ValueError(f"t_start must be in [0, t1 = {t1:.6g}) s, got {t_start}")
+        checks.instance("space", space, DesignSpace, "a jc.design.DesignSpace")
+        if not callable(build):
+            raise TypeError(
+                f"build must be a function profile -> scene(s), got {type(build).__name__}"
+            )
+        checks.choice("combine", combine, ("mean", "max"))
+        t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
+        temperature = checks.real("temperature", temperature, lo=0.0, lo_open=True, unit="N")
+        reference = checks.real("reference", reference, unit="N")
+        t_start = checks.real(
+            "t_start", t_start, lo=0.0, hi=t1, hi_open=True, unit=f"s (t1 = {t1:.6g} s)"
+        )
+        sprocket = checks.integer("sprocket", sprocket, lo=0)
+        take_up = checks.real("take_up", take_up, lo=0.0, unit="N")
+        checks.flag("throw", throw)
         self.space = space
         self.build = build
         self.throw = bool(throw)
@@ -263,11 +332,23 @@ class ProfileObjective:
 
     def scenes(self, u) -> Scene:
         """The settled scenes at ``u``, stacked along a leading ensemble axis."""
-        built = self.build(self.space.profile(jnp.asarray(u, dtype=float)))
+        built = self.build(self.space.profile(self._u(u)))
         return stack([built] if isinstance(built, Scene) else list(built))
+
+    def _u(self, u) -> Array:
+        u = _coordinate(u)
+        if is_concrete(u) and not np.all(np.isfinite(np.asarray(u))):
+            raise ValueError(f"ProfileObjective: u must be finite, got {np.asarray(u)}")
+        return u
 
     def _count(self, scenes):
         check_horizon(scenes, self.config.t1, "ProfileObjective", members=True)
+        n_sprockets = len(scenes.sprockets)
+        if self.config.sprocket >= n_sprockets:
+            raise ValueError(
+                f"ProfileObjective: sprocket={self.config.sprocket} but the scenes have "
+                f"{n_sprockets} sprocket(s); index the designed one in [0, {n_sprockets - 1}]"
+            )
         self.evaluations += jax.tree_util.tree_leaves(scenes)[0].shape[0]
 
     def _checked(self, value, grad, out: PeakForce):
@@ -292,13 +373,13 @@ class ProfileObjective:
         profile at ``u`` is swapped in and resettled to first order — the same model the
         gradient at ``u0`` sees, for finite-difference checks."""
         self._count(scenes)
-        value, out = _value(jnp.asarray(u, dtype=float), self.space, scenes, self.config)
+        value, out = _value(self._u(u), self.space, scenes, self.config)
         return self._checked(value, None, out)[0], out
 
     def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, PeakForce]:
         """:meth:`value_and_grad` on ``scenes`` already built (see :meth:`value_on`)."""
         self._count(scenes)
-        u = jnp.asarray(u, dtype=float)
+        u = self._u(u)
         (value, out), grad = _value_and_grad(u, self.space, scenes, self.config)
         value, grad = self._checked(value, grad, out)
         return value, grad, out

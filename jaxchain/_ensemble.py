@@ -29,6 +29,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from . import _checks as checks
 from ._observers import PeakRecord
 from ._options import Resolved, SolveOptions, with_options
 from ._result import Result, raise_if_failed, result_messages, result_names
@@ -425,6 +426,8 @@ def simulate_ensemble(
     if not isinstance(scenes, Scene):
         scenes = stack(scenes)
     m = _n_members(scenes)
+    if pilot_rtol is not None:
+        checks.real("pilot_rtol", pilot_rtol, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     if group_waste is not None and not group_waste >= 1.0:
         raise ValueError(f"group_waste must be >= 1 (or None), got {group_waste}")
     dt0 = opts.dt0

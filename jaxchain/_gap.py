@@ -77,8 +77,7 @@ def _profile(profile, caller: str):
     """``profile`` if it is one tooth profile (scalar shape leaves)."""
     if not isinstance(profile, (ToothProfile, GapShape)):
         raise TypeError(
-            f"{caller}: profile must be a jc.ToothProfile, got {type(profile).__name__} "
-            f"{profile!r}"
+            f"{caller}: profile must be a jc.ToothProfile, got {type(profile).__name__} {profile!r}"
         )
     names = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter", "pitch")
     shaped = {n: np.shape(getattr(profile, n)) for n in names if np.shape(getattr(profile, n))}

@@ -20,8 +20,10 @@ from typing import Any
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from . import _checks as checks
 from ._dynamics import (
     DriveState,
     Forces,
@@ -30,7 +32,7 @@ from ._dynamics import (
     roller_contacts,
     roller_kinematics,
 )
-from ._numerics import parabola_max
+from ._numerics import is_concrete, parabola_max
 from ._result import FLYING_APART
 from ._scene import Scene
 
@@ -114,12 +116,14 @@ class PeakRecord(AbstractStepObserver):
 
     samples: int = eqx.field(static=True, default=4)
 
-    def __check_init__(self):
-        if not (isinstance(self.samples, int) and self.samples >= 2):
+    def __init__(self, samples: int = 4):
+        ok = isinstance(samples, (int, np.integer)) and not isinstance(samples, bool)
+        if not (ok and samples >= 2):
             raise ValueError(
                 f"PeakRecord: samples must be an int >= 2 (a parabola needs a start, an "
-                f"interior and an end sample); got {self.samples!r}"
+                f"interior and an end sample); got {samples!r}"
             )
+        self.samples = int(samples)
 
     def init(self, t0, y0, scene):
         f0 = _roller_forces(y0, scene)
@@ -188,8 +192,11 @@ EXP_CAP = 60.0  # forces beyond reference + 60·temperature saturate the soft ma
 
 def window_weight(t, t_start, rise):
     """Smooth (C¹) window: 0 before ``t_start − rise/2``, 1 after ``t_start + rise/2``; its
-    integral over [t0, t1] is ``t1 − t_start`` when the ramp lies inside."""
-    s = jnp.clip((t - t_start) / rise + 0.5, 0.0, 1.0)
+    integral over [t0, t1] is ``t1 − t_start`` when the ramp lies inside. ``rise`` ≥ 0
+    (0: a step at ``t_start``)."""
+    if is_concrete(rise) and not np.all(np.asarray(rise, dtype=float) >= 0):
+        raise ValueError(f"window_weight: rise must be >= 0 s, got {rise}")
+    s = jnp.clip((t - t_start) / jnp.maximum(rise, 1e-30) + 0.5, 0.0, 1.0)
     return s * s * (3 - 2 * s)
 
 
@@ -227,6 +234,11 @@ class SoftPeak(AbstractIntegralObserver):
         temperature: ArrayLike = 50.0,
         reference: ArrayLike = 0.0,
     ):
+        if is_concrete((t_start, rise, temperature, reference)):
+            checks.real("SoftPeak.t_start", t_start, lo=0.0, unit="s")
+            checks.real("SoftPeak.rise", rise, lo=0.0, unit="s (0: a step)")
+            checks.real("SoftPeak.temperature", temperature, lo=0.0, lo_open=True, unit="N")
+            checks.real("SoftPeak.reference", reference, unit="N")
         self.t_start = jnp.asarray(t_start, dtype=float)
         self.rise = jnp.asarray(rise, dtype=float)
         self.temperature = jnp.asarray(temperature, dtype=float)

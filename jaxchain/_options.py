@@ -83,10 +83,22 @@ class SolveOptions(eqx.Module):
         if self.max_steps < 1:
             raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
         if is_concrete(self.rtol, self.atol):
-            for name in ("rtol", "atol"):
+            for name, hi in (("rtol", 1.0), ("atol", np.inf)):
                 v = np.asarray(getattr(self, name), dtype=float)
-                if not (v.shape == () and np.isfinite(v) and v > 0):
-                    raise ValueError(f"{name} must be a finite number > 0, got {v}")
+                if not (v.shape == () and np.isfinite(v) and 0 < v < hi):
+                    rng = "in (0, 1)" if hi == 1.0 else "> 0"
+                    raise ValueError(f"{name} must be a finite number {rng}, got {v}")
+        adaptive = self.dt is None and (c is None or isinstance(c, diffrax.PIDController))
+        if (
+            adaptive
+            and self.solver is not None
+            and not isinstance(self.solver, diffrax.AbstractAdaptiveSolver)
+        ):
+            raise ValueError(
+                f"{type(self.solver).__name__} gives no error estimate for adaptive steps: "
+                "use fixed steps (dt=...) or an adaptive solver (e.g. diffrax.Tsit5(), "
+                "diffrax.Dopri8(), diffrax.Kvaerno5())"
+            )
         if self.dt0 is not None and is_concrete(self.dt0):
             v = np.asarray(self.dt0, dtype=float)
             if not np.all(np.isfinite(v) & (v > 0)):

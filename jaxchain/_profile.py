@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._chain import ChainSpec
+from ._chain import ChainSpec, as_chain
 from ._numerics import is_concrete, safe_norm, safe_sqrt
 
 __all__ = ["ToothProfile", "ProfileGeometry", "iso606_limits"]
@@ -55,6 +55,7 @@ def iso606_limits(chain: ChainSpec, teeth: int) -> dict[str, tuple[float, float]
     is (ri max, α min, re min, da min).
     """
     _check_teeth(teeth)
+    chain = as_chain(chain)
     z = teeth
     p = float(chain.pitch)
     d1 = float(chain.roller_diameter)
@@ -129,18 +130,19 @@ class ToothProfile(eqx.Module):
         self.tip_diameter = jnp.asarray(tip_diameter, dtype=float)
 
     def __check_init__(self):
-        if not is_concrete(self) or any(
-            jnp.ndim(x) != 0
-            for x in (
-                self.pitch,
-                self.roller_diameter,
-                self.seating_radius,
-                self.seating_angle,
-                self.flank_radius,
-                self.tip_diameter,
-            )  # fmt: skip
-        ):
-            return  # traced, or a batch of profiles built by vmap: nothing to inspect
+        leaves = {
+            n: getattr(self, n)
+            for n in ("pitch", "roller_diameter", "seating_radius", "seating_angle",
+                      "flank_radius", "tip_diameter")
+        }  # fmt: skip
+        if not is_concrete(self):
+            return  # traced: nothing to inspect
+        if any(jnp.ndim(x) != 0 for x in leaves.values()):
+            # a batch of profiles (built by vmap, or given as arrays): each must be finite
+            bad = [n for n, x in leaves.items() if not np.all(np.isfinite(np.asarray(x)))]
+            if bad:
+                raise ValueError(f"ToothProfile: {bad} must be finite, got NaN or inf")
+            return
         _validate(self)
 
     # ------------------------------------------------------------------ factory
@@ -158,6 +160,7 @@ class ToothProfile(eqx.Module):
         of a tooth meet (a pointed tooth: the maximum form at large z with small d1/p,
         e.g. 06B with z = 120), the tip diameter is lowered to that circle.
         """
+        chain = as_chain(chain)
         lim = iso606_limits(chain, teeth)
         pick = {"min": (0, 1, 1, 1), "max": (1, 0, 0, 0)}
         names = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter")

@@ -75,6 +75,12 @@ def time_span(t0: ArrayLike, t1: ArrayLike, ts: ArrayLike | None, n_save: int):
             raise ValueError(f"t0 and t1 must be finite, got t0={float(t0a)}, t1={float(t1a)}")
         if not float(t1a) > float(t0a):
             raise ValueError(f"t1 must be > t0, got t0={float(t0a)}, t1={float(t1a)}")
+        if float(t0a) != 0.0:
+            raise ValueError(
+                f"t0 must be 0 s, got {float(t0a)}: a scene's initial state is its state at "
+                "t = 0 (its guides, load ramp and horizon run on absolute time); to look at a "
+                "later window, save only there with ts=..."
+            )
     if ts is None:
         if isinstance(n_save, bool) or not isinstance(n_save, (int, np.integer)) or n_save < 2:
             raise ValueError(f"n_save must be an integer >= 2, got {n_save!r}")
@@ -118,7 +124,7 @@ def simulate(
 
     Args:
         scene: built by :mod:`jaxchain.scenes`.
-        t1, t0: time span [s].
+        t1: end of the solve [s] (t0 = 0: a scene's initial state is its state at t = 0).
         ts: save times within [t0, t1] (default: ``n_save`` equally spaced over it).
         throw: raise on failure (``RuntimeError`` with what to change); with
             ``throw=False`` check ``Solution.result`` / ``Solution.message``.

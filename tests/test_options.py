@@ -33,7 +33,8 @@ def test_result_names_of_a_batch():
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
-        (dict(rtol=0.0), ValueError, r"rtol must be a finite number > 0, got 0.0"),
+        (dict(rtol=0.0), ValueError, r"rtol must be a finite number in \(0, 1\), got 0.0"),
+        (dict(rtol=2.0), ValueError, r"rtol must be a finite number in \(0, 1\), got 2.0"),
         (dict(atol=float("nan")), ValueError, r"atol must be a finite number > 0"),
         (dict(max_steps=0), ValueError, r"max_steps must be a positive integer, got 0"),
         (dict(max_steps=10.5), ValueError, r"max_steps must be a positive integer"),
@@ -51,6 +52,12 @@ def test_result_names_of_a_batch():
         (dict(stepsize_controller=1e-6), TypeError, r"stepsize_controller must be a diffrax"),
         (dict(adjoint="checkpoint"), TypeError, r"adjoint must be a diffrax adjoint"),
         (dict(progress="yes"), TypeError, r"progress must be True or False"),
+        (dict(allow_float32=1), TypeError, r"allow_float32 must be True or False"),
+        (
+            dict(solver=diffrax.Euler()),
+            ValueError,
+            r"Euler gives no error estimate for adaptive steps: use fixed steps \(dt=...\)",
+        ),
     ],
 )
 def test_bad_options_say_what_is_wrong(kwargs, error, match):

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec
+from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._contact.johnson import JohnsonCylinder
@@ -58,7 +58,7 @@ def joint_law(
 ) -> JohnsonCylinder:
     """Johnson's conformal law for the pin/bush (``"pin"``) or bush/roller pair;
     ``width``: its contact-onset regularization half-width [m] (default the law's)."""
-    chain = _chain(chain)
+    chain = as_chain(chain)
     checks.choice("which", which, ("pin", "roller"))
     estar = effective_modulus(material, material)
     if which == "pin":
@@ -81,12 +81,6 @@ def _width(width: float | None) -> dict:
     return {"width": jnp.asarray(width, dtype=float)}
 
 
-def _chain(chain) -> ChainSpec:
-    if isinstance(chain, str):
-        return ChainSpec.iso606(chain)
-    return checks.instance("chain", chain, ChainSpec, "a jc.ChainSpec or an ISO 606 designation")
-
-
 def roller_law(
     chain: ChainSpec,
     restitution: float,
@@ -107,7 +101,7 @@ def roller_law(
     ``width``: the contact-onset regularization half-width [m] (default the law's 10 nm;
     a design model may resolve the onset over a few µm, see ``python -m optimize``).
     """
-    chain = _chain(chain)
+    chain = as_chain(chain)
     d1 = chain.roller_diameter
     clearance = 0.005 * d1 + 0.0345e-3 * (1e3 * d1) ** (1 / 3)
     return JohnsonCylinder(

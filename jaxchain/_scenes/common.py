@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec
+from .._chain import ChainSpec, as_chain
 from .._profile import ToothProfile
 from .build import joint_law, link_stiffness
 
@@ -24,14 +24,7 @@ __all__ = [
 
 def resolve_chain(chain: ChainSpec | str) -> ChainSpec:
     """A :class:`ChainSpec` from itself or an ISO 606 designation ("08B")."""
-    if isinstance(chain, str):
-        return ChainSpec.iso606(chain)
-    if not isinstance(chain, ChainSpec):
-        raise TypeError(
-            f"chain must be an ISO 606 designation such as '08B' or a jaxchain ChainSpec, "
-            f"got {type(chain).__name__} {chain!r}"
-        )
-    return chain
+    return as_chain(chain)
 
 
 def check_common(
