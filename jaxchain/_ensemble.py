@@ -201,6 +201,9 @@ class EnsembleSolution(eqx.Module):
 
     def member(self, i: int) -> Solution:
         """Member ``i`` as a :class:`~jaxchain.Solution`."""
+        m = self.n_members
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -m <= i < m:
+            raise IndexError(f"member index must be an integer in [-{m}, {m}), got {i!r}")
         pick = lambda x: x[i] if eqx.is_array(x) else x
         fields = {
             f: pick(getattr(self, f))

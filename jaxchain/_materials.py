@@ -43,6 +43,11 @@ STEEL = Material()
 
 def effective_modulus(a: Material, b: Material):
     """Contact modulus E* with 1/E* = (1 − ν₁²)/E₁ + (1 − ν₂²)/E₂ [Pa]."""
+    for name, m in (("a", a), ("b", b)):
+        if not isinstance(m, Material):
+            raise TypeError(
+                f"effective_modulus: {name} must be a jc.Material, got {type(m).__name__} {m!r}"
+            )
     return 1.0 / (
         (1 - a.poisson_ratio**2) / a.youngs_modulus + (1 - b.poisson_ratio**2) / b.youngs_modulus
     )

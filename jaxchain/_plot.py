@@ -7,7 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ._chain import ChainSpec
+from . import _checks as checks
+from ._chain import ChainSpec, as_chain
 from ._profile import ToothProfile
 
 __all__ = ["plot_profiles"]
@@ -30,6 +31,8 @@ def plot_profiles(
     """
     import matplotlib.pyplot as plt
 
+    chain = as_chain(chain)
+    checks.integer("gaps", gaps, lo=0, hi=10)
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 6))
     profiles = {f"ISO 606 {f} form": ToothProfile.iso606(chain, teeth, f) for f in forms}

@@ -25,6 +25,22 @@ _CMAP = "YlOrRd"
 _MOVIE_SUFFIXES = (".gif", ".mp4")
 
 
+def _solution(sol, caller: str, scene=None) -> None:
+    """``sol`` must be one solution (and ``scene`` a scene, if given)."""
+    if not isinstance(sol, Solution):
+        extra = (
+            "; an ensemble's member i is ens.member(i)"
+            if type(sol).__name__ == "EnsembleSolution"
+            else ""
+        )
+        raise TypeError(
+            f"{caller}: sol must be a jc.Solution (from jc.simulate), got "
+            f"{type(sol).__name__}{extra}"
+        )
+    if scene is not None and not isinstance(scene, Scene):
+        raise TypeError(f"{caller}: scene must be a jaxchain Scene, got {type(scene).__name__}")
+
+
 def _new_ax(ax, figsize=(8, 4.5)):
     import matplotlib.pyplot as plt
 
@@ -121,6 +137,7 @@ def plot_forces(
     ``sol.peak_contact_force``, the peak over every solver step too (it can exceed the
     saved peaks when an impact falls between save times). Returns the Axes.
     """
+    _solution(sol, "plot_forces")
     ax = _new_ax(ax)
     force = np.asarray(sol.roller_sprocket_force, dtype=float)
     idx = _select(force, rollers, top, "roller")
@@ -156,6 +173,7 @@ def plot_tensions(
 
     Each link's peak over the save times is marked and annotated. Returns the Axes.
     """
+    _solution(sol, "plot_tensions")
     ax = _new_ax(ax)
     tension = np.asarray(sol.link_tension, dtype=float)
     idx = _select(tension, links, top, "link")
@@ -176,6 +194,7 @@ def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None):
     With ``scene`` the lines are labelled with each sprocket's role and tooth count.
     Returns the Axes.
     """
+    _solution(sol, "plot_speed", scene)
     ax = _new_ax(ax)
     t_ms = np.asarray(sol.ts) * 1e3
     rpm = np.asarray(sol.sprocket_speed, dtype=float) * 60 / (2 * math.pi)
@@ -361,6 +380,7 @@ def plot_snapshot(
     None (uncoloured, no colorbar). The colour scale spans the whole solution, so
     snapshots at different times compare. Returns the Axes.
     """
+    _solution(sol, "plot_snapshot", scene)
     i = _check_index(sol, index)
     if ax is None:
         ax = _snapshot_figure(scene, sol, [i]).add_subplot()
@@ -398,6 +418,7 @@ def animate(
     import matplotlib.animation as manimation
     import matplotlib.pyplot as plt
 
+    _solution(sol, "animate", scene)
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in _MOVIE_SUFFIXES:

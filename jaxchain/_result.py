@@ -107,6 +107,10 @@ RESULT_NAMES = (
 def result_names(result: Result) -> list[str]:
     """The :class:`Result` name ("successful", "diverged", …) of every element of a
     (possibly batched) result, flattened."""
+    if not isinstance(result, Result):
+        raise TypeError(
+            f"result must be a jc.Result (e.g. sol.result), got {type(result).__name__} {result!r}"
+        )
     hits = [np.ravel(np.asarray(result == getattr(Result, n))) for n in RESULT_NAMES]
     return [RESULT_NAMES[int(np.argmax(col))] for col in np.stack(hits, axis=1)]
 

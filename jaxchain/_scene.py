@@ -92,7 +92,25 @@ class Sprocket(eqx.Module):
         return self.load_torque * jnp.where(ramp > 0, x * x * (3 - 2 * x), 1.0)
 
     def __check_init__(self):
-        if is_concrete(self) and self.driven and not float(self.inertia) > 0:
+        if not isinstance(self.profile, ToothProfile):
+            raise TypeError(
+                f"Sprocket: profile must be a jc.ToothProfile, got {type(self.profile).__name__}"
+            )
+        if np.shape(self.centre)[-1:] != (2,):
+            raise ValueError(f"Sprocket: centre must be (x, y), got shape {np.shape(self.centre)}")
+        if self.contact_slots is not None and self.contact_slots < 1:
+            raise ValueError(
+                f"Sprocket: contact_slots must be an integer >= 1 or None (check every "
+                f"roller), got {self.contact_slots}"
+            )
+        if not is_concrete(self):
+            return
+        for name in ("centre", "speed", "inertia", "load_torque", "angle0", "load_ramp"):
+            if not np.all(np.isfinite(np.asarray(getattr(self, name)))):
+                raise ValueError(f"Sprocket: {name} must be finite, got {getattr(self, name)}")
+        if np.any(np.asarray(self.load_ramp) < 0):
+            raise ValueError(f"Sprocket: load_ramp must be >= 0 s, got {self.load_ramp}")
+        if self.driven and not np.all(np.asarray(self.inertia) > 0):
             raise ValueError(f"a driven sprocket needs inertia > 0 kg·m², got {self.inertia}")
 
 

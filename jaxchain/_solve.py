@@ -228,6 +228,18 @@ def check_horizon(scene: Scene, t1, caller: str, members: bool = False) -> None:
         )
 
 
+def _check_finite(scene: Scene, caller: str) -> None:
+    """A concrete scene's numbers must be finite (its horizon may be inf): a NaN mass or
+    start position would only surface as a stalled solve."""
+    leaves = jax.tree_util.tree_leaves_with_path(eqx.tree_at(lambda s: s.horizon, scene, 0.0))
+    for path, x in leaves:
+        if eqx.is_inexact_array(x) and is_concrete(x) and not np.all(np.isfinite(np.asarray(x))):
+            raise ValueError(
+                f"{caller}: scene{jax.tree_util.keystr(path)} has non-finite values (NaN or "
+                "inf); rebuild the scene with finite inputs"
+            )
+
+
 def strong_scene(scene: Scene, caller: str, members: bool = False) -> Scene:
     """The scene with every inexact array leaf strongly typed (a weakly typed leaf such as
     ``jnp.asarray(110.0)`` must not force a retrace); warns when it is not float64. Every
@@ -244,6 +256,7 @@ def strong_scene(scene: Scene, caller: str, members: bool = False) -> Scene:
             f"{caller}: the scene is stacked (q0 has shape {np.shape(scene.q0)}, members "
             "first): simulate an ensemble with jc.simulate_ensemble, or take one member"
         )
+    _check_finite(scene, caller)
     scene = jax.tree_util.tree_map(
         lambda x: jnp.asarray(x, dtype=jnp.result_type(x)) if eqx.is_inexact_array(x) else x,
         scene,

@@ -166,7 +166,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         temperature=args.temperature,
         baseline_budget=args.baseline_budget,
     )
-    if args.fast or os.environ.get("JAXCHAIN_FAST"):
+    if args.fast or os.environ.get("JAXCHAIN_FAST") == "1":  # as the notebooks read it
         s = fast_settings(s, given)
     return s, args
 

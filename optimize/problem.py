@@ -14,6 +14,20 @@ import jaxchain as jc
 from jaxchain.design import DesignSpace, ProfileObjective
 
 
+def _is_optimizer(name: str) -> bool:
+    """Whether ``optax.<name>(learning_rate)`` builds a gradient transformation."""
+    import optax
+
+    make = getattr(optax, name, None) if name.isidentifier() else None
+    if not callable(make) or isinstance(make, type):
+        return False
+    try:
+        opt = make(0.1)
+    except Exception:  # noqa: BLE001 - anything that is not an optimizer factory
+        return False
+    return callable(getattr(opt, "init", None)) and callable(getattr(opt, "update", None))
+
+
 @dataclass
 class Settings:
     """Everything that defines a run (saved with its results; a resume must match)."""
@@ -68,8 +82,11 @@ class Settings:
             raise ValueError(f"iterations must be >= 1, got {self.iterations}")
         if not self.ensemble or not all(0.2 <= f <= 5 for f in self.ensemble):  # NaN fails
             raise ValueError(f"ensemble speed factors must be in [0.2, 5], got {self.ensemble}")
-        if not hasattr(__import__("optax"), self.optimizer):
-            raise ValueError(f"optimizer must name an optax optimizer, got {self.optimizer!r}")
+        if not _is_optimizer(self.optimizer):
+            raise ValueError(
+                f"optimizer must name an optax optimizer taking a learning rate (adam, sgd, "
+                f"adamw, lion, ...), got {self.optimizer!r}"
+            )
         if not 0 <= self.contact_width <= 2e-5:
             raise ValueError(
                 "contact_width must be in [0, 2e-5] m (nominal law: 1e-8), got "

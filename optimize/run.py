@@ -123,6 +123,18 @@ def load_checkpoint(out: Path, settings: Settings) -> dict | None:
             f"--resume: {path} is not a checkpoint of python -m optimize (missing "
             f"{missing or ['settings']}); {fix}"
         )
+    try:
+        u = np.asarray(ck["u"], dtype=float)
+        leaves = [np.asarray(v, dtype=float) for v in ck["opt_state"]]
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"--resume: {path} holds non-numeric values in u or opt_state; {fix}"
+        ) from None
+    finite = np.all(np.isfinite(u)) and all(np.all(np.isfinite(v)) for v in leaves)
+    if u.shape != (4,) or not finite or not isinstance(ck["history"], list):
+        raise ValueError(
+            f"--resume: {path} is damaged (u of shape {u.shape}, finite: {bool(finite)}); {fix}"
+        )
     mine, theirs = settings.as_dict(), dict(ck["settings"])
     mine.pop("iterations"), theirs.pop("iterations")  # a resume may extend the run
     diff = {k: (theirs.get(k), v) for k, v in mine.items() if theirs.get(k) != v}

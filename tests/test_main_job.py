@@ -120,3 +120,33 @@ def test_fast_keeps_the_options_given():
     assert (s.periods, s.iterations, s.ensemble, s.baseline_budget) == (3, 5, (0.9, 1.1), 4)
     s, _ = parse([])
     assert (s.periods, s.iterations, s.ensemble) == (2, 25, (0.9, 1.0, 1.1))
+
+
+def test_an_optimizer_must_be_an_optax_optimizer():
+    for name in ("chain", "tree_utils", "nonsense", "GradientTransformation"):
+        with pytest.raises(SystemExit, match="optimizer must name an optax optimizer"):
+            main(["--optimizer", name, "--quiet", "--fast"])
+    s, _ = parse(["--optimizer", "adamw"])
+    s.validate()
+
+
+@pytest.mark.parametrize(
+    "u, match",
+    [([0.0, 0.0, 0.0], r"damaged \(u of shape \(3,\)"), (["zero"] * 4, "non-numeric values")],
+)
+def test_a_checkpoint_with_damaged_values_is_refused(tmp_path, u, match):
+    """The checkpoint carries this run's settings; only its values are damaged."""
+    from optimize.run import CHECKPOINT
+
+    s, _ = parse(["--fast"])
+    ck = dict(settings=s.as_dict(), u=u, opt_state=[], history=[], baselines={}, evaluations=0)
+    (tmp_path / CHECKPOINT).write_text(json.dumps(ck | {"timing": {}}))
+    with pytest.raises(SystemExit, match=match):
+        main(["--fast", "--quiet", "--out", str(tmp_path), "--resume"])
+
+
+def test_jaxchain_fast_is_read_as_the_notebooks_read_it(monkeypatch):
+    monkeypatch.setenv("JAXCHAIN_FAST", "0")
+    assert parse([])[0].iterations == 25
+    monkeypatch.setenv("JAXCHAIN_FAST", "1")
+    assert parse([])[0].iterations == 3

@@ -10,6 +10,7 @@ import dataclasses
 import math
 
 import diffrax
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -224,6 +225,23 @@ BAD = [
         "Euler gives no error estimate",
     ),
     (lambda: jc.simulate(SCENE, 1e-3, rtl=1e-6), TypeError, r"unexpected keyword argument"),
+    (
+        lambda: jc.simulate(eqx.tree_at(lambda s: s.q0, SCENE, SCENE.q0.at[0, 0].set(NAN)), 1e-3),
+        ValueError,
+        r"simulate: scene.q0 has non-finite values",
+    ),
+    (lambda: jc.Sprocket("prof", [0.0, 0.0], 100.0), TypeError, "profile must be a jc.Tooth"),
+    (lambda: jc.Sprocket(PROFILE, [0.0, 0.0, 0.0], 1.0), ValueError, r"centre must be \(x, y\)"),
+    (lambda: jc.Sprocket(PROFILE, [0.0, 0.0], NAN), ValueError, "speed must be finite"),
+    (
+        lambda: jc.Sprocket(PROFILE, [0.0, 0.0], 1.0, contact_slots=-3),
+        ValueError,
+        "contact_slots must be an integer >= 1 or None",
+    ),
+    (lambda: jc.result_names("successful"), TypeError, "result must be a jc.Result"),
+    (lambda: jc.effective_modulus(jc.STEEL, "steel"), TypeError, "b must be a jc.Material"),
+    (lambda: jc.plot_forces("sol"), TypeError, "plot_forces: sol must be a jc.Solution"),
+    (lambda: jc.plot_profiles(CHAIN, 18, gaps=-1), ValueError, r"gaps must be an integer in"),
     # ---------------------------------------------------------------- ensembles
     (lambda: jc.simulate_ensemble([], 1e-3), ValueError, "at least one scene"),
     (lambda: jc.simulate_ensemble([SCENE, "x"], 1e-3), TypeError, "scene 1 is a str"),
