@@ -6,6 +6,7 @@ import math
 from typing import ClassVar
 
 import equinox as eqx
+import numpy as np
 
 from ._checks import fields
 from ._materials import STEEL, Material
@@ -100,6 +101,9 @@ class ChainSpec(eqx.Module):
             "roller_link_inertia", "pin_link_inertia", "roller_inertia",
         ]  # fmt: skip
         fields(self, [(f, lambda v: v > 0, "> 0") for f in positive])
+        shaped = {f: np.shape(getattr(self, f)) for f in positive if np.shape(getattr(self, f))}
+        if shaped:
+            raise TypeError(f"ChainSpec fields must be scalars (one chain), got shapes {shaped}")
         order = [
             ("pin_diameter", "bush_bore"),
             ("bush_bore", "bush_diameter"),

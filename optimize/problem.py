@@ -57,9 +57,9 @@ class Settings:
         if self.fidelity not in ("lumped", "clearance"):
             raise ValueError(f"fidelity must be 'lumped' or 'clearance', got {self.fidelity!r}")
         jc.ChainSpec.iso606(self.chain)  # raises with the list of designations
-        for name, lo in [("teeth", 7), ("driven_teeth", 7)]:
-            if getattr(self, name) < lo:
-                raise ValueError(f"{name} must be >= {lo}, got {getattr(self, name)}")
+        for name in ("teeth", "driven_teeth"):
+            if not 7 <= getattr(self, name) <= 250:
+                raise ValueError(f"{name} must be in [7, 250], got {getattr(self, name)}")
         reals = ["speed_rpm", "load", "temperature", "dt", "learning_rate", "remeasure_rtol"]
         for name in reals + ["contact_width"]:
             if not math.isfinite(getattr(self, name)):

@@ -22,6 +22,7 @@ import jaxchain as jc
 from .problem import Problem, Settings, iso_forms, make_problem, profile_values, remeasure
 
 CHECKPOINT = "checkpoint.json"
+FORMS = ("min", "max", "mid")  # the ISO 606 tooth-gap forms every run is compared with
 RESULTS = "results.json"
 
 
@@ -198,7 +199,8 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
             m = remeasure(problem, forms[form])
             base[form] = {"params": profile_values(forms[form]), "peak_N": m["peak_N"]}
         timing["baselines_s"] = time.perf_counter() - t
-    better = min(("min", "max"), key=lambda f: base[f]["peak_N"])
+    # the best ISO 606 form measured (the mid form complies with the standard too)
+    better = min(FORMS, key=lambda f: base[f]["peak_N"])
     reference = max(base[f]["peak_N"] for f in ("min", "max", "mid"))
     objective = problem.make_objective(reference)
 
@@ -310,19 +312,18 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
             }
             if law == "johnson":
                 traces[name] = m["members"][0]
-    other = "max" if better == "min" else "min"
-    hertz_other = remeasure(problem, forms[other], law="hertz")["peak_N"]
-    checks[f"iso_{other}"] = {"hertz": {"peak_N": hertz_other}}
-    checks[f"iso_{other}"]["johnson"] = {"peak_N": base[other]["peak_N"]}
+    for other in (f for f in FORMS if f != better):
+        hertz_other = remeasure(problem, forms[other], law="hertz")["peak_N"]
+        checks[f"iso_{other}"] = {
+            "hertz": {"peak_N": hertz_other},
+            "johnson": {"peak_N": base[other]["peak_N"]},
+        }
     timing["remeasure_s"] = time.perf_counter() - t
 
+    # against the best ISO form under each law (which form is best may differ per law)
     gain = {
         law: 1
-        - checks["optimized"][law]["peak_N"]
-        / min(
-            checks["iso_min" if better == "min" else "iso_max"][law]["peak_N"],
-            checks[f"iso_{other}"][law]["peak_N"],
-        )
+        - checks["optimized"][law]["peak_N"] / min(checks[f"iso_{f}"][law]["peak_N"] for f in FORMS)
         for law in ("johnson", "hertz")
     }
     soft_bias = best["objective_N"] / checks["optimized"]["johnson"]["peak_N"] - 1
@@ -420,7 +421,7 @@ def summary(r: dict) -> str:
         lines.append(
             f"  {law:8s} law: optimized {r['remeasured']['optimized'][law]['peak_N']:.0f} N vs "
             f"{b} {r['remeasured'][b][law]['peak_N']:.0f} N -> "
-            f"{100 * r['reduction_vs_better_baseline'][law]:.1f} % lower than the better ISO form"
+            f"{100 * r['reduction_vs_better_baseline'][law]:.1f} % lower than the best ISO form"
         )
     nm = r["gradient_free"]
     if not nm.get("skipped"):

@@ -182,15 +182,15 @@ def test_gradient_matches_central_differences(short_objective):
     scenes = obj.scenes(u)
     value, grad, _ = obj.value_and_grad_on(u, scenes)
     scale = float(jnp.linalg.norm(grad))
-    # |AD − FD| / |∇J|: below h = 1e-6 round-off, above 1e-5 the curvature of the C¹
-    # regularizations limit central differences
+    # |AD − FD| / |∇J| at h = 1e-5, measured per component: 1.5e-6, 5.2e-6, 3.9e-6, 0 (the
+    # tip diameter does not touch this solve); at h = 1e-6 round-off raises them to
+    # 1.9e-5…4.7e-5, above 1e-5 the curvature of the C¹ regularizations would
+    h = 1e-5
     for i in range(4):
-        errs = []
-        for h in (1e-5, 1e-6):
-            e = jnp.zeros(4).at[i].set(h)
-            fd = (obj.value_on(u + e, scenes)[0] - obj.value_on(u - e, scenes)[0]) / (2 * h)
-            errs.append(abs(float(grad[i]) - float(fd)) / scale)
-        assert min(errs) < 1e-4, (i, errs)
+        e = jnp.zeros(4).at[i].set(h)
+        fd = (obj.value_on(u + e, scenes)[0] - obj.value_on(u - e, scenes)[0]) / (2 * h)
+        err = abs(float(grad[i]) - float(fd)) / scale
+        assert err < 1e-4, (i, err)
     assert np.all(np.isfinite(np.asarray(grad)))
 
 
@@ -246,17 +246,33 @@ def test_adaptive_solve_gradient_is_finite():
     assert np.isfinite(float(value)) and np.all(np.isfinite(np.asarray(grad)))
 
 
-def test_no_nan_gradients_at_the_corners_of_the_box(short_objective):
-    """Finite objective and gradient at every corner of the ISO box (u = ±5: each
-    parameter 0.7 % from its bound) and far outside (u = ±40), each from the strand
-    settled at its own profile (solved instead on the strand settled at the mid form and
-    resettled to first order, a corner's solve is reported diverged: the first-order
-    move of the equilibrium does not reach that far)."""
-    for pick in itertools.product((-5.0, 5.0), repeat=4):
-        value, grad, out = short_objective.value_and_grad(jnp.asarray(pick))
+# corners of the ISO box (u = ±5: each parameter 0.7 % from its bound): the minimum and
+# maximum tooth-gap forms, and the two corners pairing the smallest flank radius with the
+# largest tip diameter (a pointed tooth, its tip clamped where the flanks meet) and the
+# reverse
+CORNERS = [(-5.0, 5.0, 5.0, 5.0), (5.0, -5.0, -5.0, -5.0), (-5.0, -5.0, -5.0, 5.0), (5, 5, 5, -5)]
+
+
+def _finite_at(objective, corners):
+    """Finite objective and gradient at each u, each from the strand settled at its own
+    profile (solved instead on the strand settled at the mid form and resettled to first
+    order, a corner's solve is reported diverged: the first-order move of the equilibrium
+    does not reach that far)."""
+    for pick in corners:
+        value, grad, out = objective.value_and_grad(jnp.asarray(pick, dtype=float))
         assert np.isfinite(float(value)) and np.all(np.isfinite(np.asarray(grad))), pick
-    value, grad, _ = short_objective.value_and_grad(jnp.array([40.0, -40.0, 40.0, -40.0]))
-    assert np.isfinite(float(value)) and np.all(np.isfinite(np.asarray(grad)))
+
+
+def test_no_nan_gradients_at_the_corners_of_the_box(short_objective):
+    """The ISO forms' corners, the pointed-tooth corners and far outside (u = ±40)."""
+    _finite_at(short_objective, CORNERS + [(40.0, -40.0, 40.0, -40.0)])
+
+
+@pytest.mark.slow
+def test_no_nan_gradients_at_any_corner_of_the_box(short_objective):
+    """All 16 corners (the default run takes the 4 above: 17 settled builds and gradients
+    cost ~45 s)."""
+    _finite_at(short_objective, [p for p in itertools.product((-5.0, 5.0), repeat=4)])
 
 
 def test_a_failed_member_is_never_a_value():
