@@ -57,8 +57,8 @@ def engagement(
     ``tension`` far away) and lets it out into a slack exit span (``slack_tension``).
 
     ``wrap`` rollers start seated (default z/2), ``n_entry`` rollers on the entry span mesh
-    one after the other, one per tooth period 2π/(zω); simulate up to about
-    ``n_entry`` tooth periods. Each free span end runs on a guide moving at that span's mean
+    one after the other, one per tooth period 2π/(zω): the scene's horizon
+    (``Scene.horizon``) is ``n_entry`` tooth periods, and a longer solve is refused. Each free span end runs on a guide moving at that span's mean
     speed (the polygon's mean speed z·p·ω/2π with the pitch stretched by the span's
     tension, so the span's tension does not drift), pulled by its tension through a soft
     spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
