@@ -8,23 +8,17 @@ import math
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec, as_chain
+from .._chain import ChainSpec
 from .._profile import ToothProfile
 from .build import joint_law, link_stiffness
 
 __all__ = [
-    "resolve_chain",
     "check_common",
     "disc_inertia",
     "contact_slots",
     "check_profile",
     "stretch_of",
 ]
-
-
-def resolve_chain(chain: ChainSpec | str) -> ChainSpec:
-    """A :class:`ChainSpec` from itself or an ISO 606 designation ("08B")."""
-    return as_chain(chain)
 
 
 def check_common(

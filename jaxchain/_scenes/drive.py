@@ -6,7 +6,7 @@ import math
 from typing import Literal
 
 from .. import _checks as checks
-from .._chain import ChainSpec
+from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._profile import MAX_TEETH, ToothProfile
@@ -18,7 +18,6 @@ from .common import (
     check_profile,
     contact_slots,
     disc_inertia,
-    resolve_chain,
     stretch_of,
 )
 from .layout import closed_drive_layout, transport_velocity
@@ -85,7 +84,7 @@ def drive(
             :func:`~jaxchain.scenes.equilibrate`); False starts from the raw layout with
             the load ramped in (default True).
     """
-    chain = resolve_chain(chain)
+    chain = as_chain(chain)
     z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
     for k, z in enumerate((z1, z2)):
         checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec
+from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._profile import MAX_TEETH, ToothProfile
@@ -21,7 +21,6 @@ from .common import (
     check_profile,
     contact_slots,
     disc_inertia,
-    resolve_chain,
     stretch_of,
 )
 from .layout import strand_layout
@@ -58,7 +57,8 @@ def engagement(
 
     ``wrap`` rollers start seated (default z/2), ``n_entry`` rollers on the entry span mesh
     one after the other, one per tooth period 2π/(zω): the scene's horizon
-    (``Scene.horizon``) is ``n_entry`` tooth periods, and a longer solve is refused. Each free span end runs on a guide moving at that span's mean
+    (``Scene.horizon``) is ``n_entry`` tooth periods, and a longer solve is refused. Each
+    free span end runs on a guide moving at that span's mean
     speed (the polygon's mean speed z·p·ω/2π with the pitch stretched by the span's
     tension, so the span's tension does not drift), pulled by its tension through a soft
     spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
@@ -66,7 +66,7 @@ def engagement(
     sprocket (:func:`~jaxchain.scenes.equilibrate`); False starts from the layout.
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
-    chain = resolve_chain(chain)
+    chain = as_chain(chain)
     checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
     speed_rpm = check_common(
         speed_rpm=speed_rpm,
