@@ -29,3 +29,9 @@ def parse(ap: argparse.ArgumentParser, argv=None) -> argparse.Namespace:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     return args
+
+
+#: The studies' scenes have frictionless chain joints (``joint_friction=None``): they
+#: measure the numerical methods (solvers, tolerances, contact regularization, costs) on
+#: the model their committed results were run with.
+FRICTIONLESS = {"joint_friction": None}

@@ -33,7 +33,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
 
 STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
 
@@ -107,7 +107,9 @@ def compile_times(fidelities, links=(50, 100, 200)):
     rows = []
     for fid in fidelities:
         for n in links:
-            sc = jc.scenes.drive("08B", teeth=(18, 36), n_links=n, fidelity=fid, settle=False)
+            sc = jc.scenes.drive(
+                "08B", teeth=(18, 36), n_links=n, fidelity=fid, settle=False, **FRICTIONLESS
+            )
             t1 = 20e-6
             _, cold = timed_run(sc, t1, n_save=3)
             _, warm = timed_run(sc, t1, n_save=3)
@@ -127,6 +129,7 @@ def comparison_drive(n_links, fidelity, rollers_on_bush):
         pretension=200.0,
         fidelity=fidelity,
         rollers_on_bush=rollers_on_bush,
+        **FRICTIONLESS,
     )
 
 
@@ -213,7 +216,7 @@ def main(argv=None):
         ("clearance/rollers-lumped", "clearance", "lumped"),
     ):
         sc = jc.scenes.engagement(
-            "08B", 18, speed_rpm=1000, n_entry=8, fidelity=fid, rollers_on_bush=rob
+            "08B", 18, speed_rpm=1000, n_entry=8, fidelity=fid, rollers_on_bush=rob, **FRICTIONLESS
         )
         eng[key], _ = case(f"engagement z18 {key}", sc, t_eng, rev)
     results["engagement"] = eng

@@ -48,7 +48,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
 from benchmarks.work_precision import loadavg  # noqa: E402
 
 Z = 18
@@ -85,7 +85,10 @@ def timed(fn, repeats=1):
 
 def members(speeds, **kw):
     """Settled meshing scenes at the given speeds (statics compiled once)."""
-    return [jc.scenes.engagement("08B", Z, speed_rpm=float(r), n_entry=8, **kw) for r in speeds]
+    return [
+        jc.scenes.engagement("08B", Z, speed_rpm=float(r), n_entry=8, **kw, **FRICTIONLESS)
+        for r in speeds
+    ]
 
 
 def spread_speeds(n, spread):
@@ -395,7 +398,9 @@ def gradient_study(n, t1, dt, repeats, default_adjoint=True):
 
 # ------------------------------------------------------------------------- (e) compile
 def _compile_row(fid, links, t1, kw):
-    sc = jc.scenes.drive("08B", teeth=(18, 36), n_links=links, fidelity=fid, settle=False)
+    sc = jc.scenes.drive(
+        "08B", teeth=(18, 36), n_links=links, fidelity=fid, settle=False, **FRICTIONLESS
+    )
     traces = {"forward": 0, "gradient": 0}
 
     def peak(scene):

@@ -38,7 +38,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
 from benchmarks.work_precision import loadavg, machine_info, tooth_period  # noqa: E402
 
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
@@ -64,6 +64,7 @@ def scene(fidelity, rollers_on_bush, speed_rpm):
         n_exit=5,  # 8 entry + 9 wrapped + 5 exit: even, as the clearance model needs
         fidelity=fidelity,
         rollers_on_bush=rollers_on_bush,
+        **FRICTIONLESS,
     )
 
 

@@ -81,7 +81,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
 from benchmarks.work_precision import (  # noqa: E402
     loadavg,
     machine_info,
@@ -131,6 +131,7 @@ def sweep_scene(law):
         restitution=RESTITUTION,
         n_exit=N_EXIT,
         roller_contact=law,
+        **FRICTIONLESS,
     )
 
 
@@ -164,6 +165,7 @@ def fidelity_scene(fidelity, speed_rpm, span_softening=SPAN_SOFTENING):
         settle=False,
         roller_contact=law_with(nominal_law()),
         span_stiffness=k_span,
+        **FRICTIONLESS,
     )
     return joint_laws_with(sc)
 

@@ -64,7 +64,7 @@ import optimistix as optx  # noqa: E402
 from jax.flatten_util import ravel_pytree  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
 
 GROWTH = 1e8  # amplification over the horizon counted as divergence (see module doc)
 BLOWUP = 10.0  # a "successful" solve whose peak force exceeds 10× the reference blew up
@@ -141,7 +141,7 @@ def predicted_step(solver, eigs, horizon=None, growth=GROWTH, h_lo=1e-12, h_hi=1
 def base_scene(n_entry: int) -> jc.Scene:
     """The engagement scene from its layout (settled by :func:`stiffened`)."""
     return jc.scenes.engagement(
-        "08B", TEETH, speed_rpm=RPM, tension=TENSION, n_entry=n_entry, settle=False
+        "08B", TEETH, speed_rpm=RPM, tension=TENSION, n_entry=n_entry, settle=False, **FRICTIONLESS
     )
 
 

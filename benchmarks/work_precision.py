@@ -50,7 +50,7 @@ import equinox as eqx  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
 
 RPM = 1000.0
 ATOL_PER_RTOL = 1e-3  # atol = 1e-3·rtol: positions ~5e-2 m, speeds ~1 m/s
@@ -87,7 +87,7 @@ def tooth_period(teeth: int, rpm: float = RPM) -> float:
 
 
 def engagement_scene():
-    return jc.scenes.engagement("08B", 18, speed_rpm=RPM)
+    return jc.scenes.engagement("08B", 18, speed_rpm=RPM, **FRICTIONLESS)
 
 
 # The drive starts from its layout (settle=False): jc.scenes.drive's static equilibrium
@@ -97,7 +97,7 @@ DRIVE = dict(teeth=(9, 18), n_links=40, speed_rpm=RPM, settle=False)
 
 
 def drive_scene():
-    return jc.scenes.drive("08B", **DRIVE)
+    return jc.scenes.drive("08B", **DRIVE, **FRICTIONLESS)
 
 
 # ----------------------------------------------------------------------------- solves

@@ -15,8 +15,8 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ._gap import GapShape, gap_contact
-from ._numerics import cross2, safe_norm, safe_normalize
-from ._scene import LinkSprings, Scene
+from ._numerics import cross2, safe_norm, safe_normalize, smooth_ramp
+from ._scene import ClearanceJoints, JointFriction, LinkSprings, Scene
 
 __all__ = [
     "DriveState",
@@ -214,14 +214,58 @@ def contact_slots_ok(y: DriveState, scene: Scene) -> Array:
     return jnp.all(jax.vmap(one)(tips, centres))
 
 
-def _pair(grp, q, v, cs, impact_speed):
-    """A pair group's tensions, unit directions a→b and lever arms."""
+class _PairState(NamedTuple):
+    tension: Array  # (P,) [N]
+    u: Array  # (P, 2) unit direction a→b
+    arm_a: Array  # (P, 2) point a from its body's origin
+    arm_b: Array
+    dv: Array  # (P, 2) velocity of point b minus point a
+
+
+def _pair(grp, q, v, cs, impact_speed) -> _PairState:
+    """A pair group's tensions, unit directions a→b, lever arms and relative velocity."""
     xa, va, arm_a = _points(q, v, grp.a, grp.ra, cs)
     xb, vb, arm_b = _points(q, v, grp.b, grp.rb, cs)
     d = xb - xa
     u = safe_normalize(d, jnp.array([1.0, 0.0], dtype=q.dtype))
     rate = jnp.sum(u * (vb - va), axis=-1)
-    return grp.element.tension(safe_norm(d), rate, impact_speed), u, arm_a, arm_b
+    tension = grp.element.tension(safe_norm(d), rate, impact_speed)
+    return _PairState(tension, u, arm_a, arm_b, vb - va)
+
+
+def _perp(d):
+    return jnp.stack([-d[..., 1], d[..., 0]], -1)
+
+
+def _clearance_friction(n, grp, ps: _PairState, v):
+    """Generalized forces of a clearance joint's contact friction: the tangential force at
+    the contact point (where the pin at a touches the hole around b, on the side −u),
+    against the sliding of the pin's surface on the hole's."""
+    el = grp.element
+    r_pin, r_hole = el.radius, el.radius + el.clearance
+    t = _perp(ps.u)
+    slip = -jnp.sum(ps.dv * t, -1) - v[grp.a, 2] * r_pin + v[grp.b, 2] * r_hole
+    ft = el.friction.force(ps.tension, slip)[:, None] * t
+    on_a = _scatter(n, grp.a, ps.arm_a - r_pin * ps.u, ft)
+    return on_a + _scatter(n, grp.b, ps.arm_b - r_hole * ps.u, -ft)
+
+
+def _joint_friction(n, jf: JointFriction, q, v, tension):
+    """Generalized forces of the lumped chain's joint friction (see :class:`JointFriction`):
+    each moment as a couple ±M/ℓ² · perp(d) at its link's ends."""
+    xa, xj, xb = q[jf.before, :2], q[jf.joint, :2], q[jf.after, :2]
+    va, vj, vb = v[jf.before, :2], v[jf.joint, :2], v[jf.after, :2]
+    d1, d2 = xj - xa, xb - xj
+    l1, l2 = jnp.sum(d1 * d1, -1), jnp.sum(d2 * d2, -1)
+    rel_rate = cross2(d2, vb - vj) / l2 - cross2(d1, vj - va) / l1
+    load = smooth_ramp(0.5 * (tension[jf.link_before] + tension[jf.link_after]), jf.load_width)
+    r = jf.pin_radius
+    moment = jf.law.force(load * r, r * rel_rate)  # on the link after; −moment before
+    f2 = (moment / l2)[:, None] * _perp(d2)
+    f1 = (moment / l1)[:, None] * _perp(d1)
+    gen = jnp.zeros((n, 2), q.dtype)
+    gen = gen.at[jf.after].add(f2).at[jf.joint].add(-f2 - f1).at[jf.before].add(f1)
+    return jnp.concatenate([gen, jnp.zeros((n, 1), q.dtype)], axis=-1)
 
 
 def peak_tension(y: DriveState, scene: Scene) -> Array:
@@ -230,7 +274,7 @@ def peak_tension(y: DriveState, scene: Scene) -> Array:
     tensile strength)."""
     cs = _rot(y.q[:, 2])
     tensions = [
-        _pair(grp, y.q, y.v, cs, scene.impact_speed)[0]
+        _pair(grp, y.q, y.v, cs, scene.impact_speed).tension
         for grp in scene.pairs
         if grp.carries_tension
     ]
@@ -246,11 +290,16 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
     tensions = []
     cs = _rot(q[:, 2])
     for grp in scene.pairs:
-        tension, u, arm_a, arm_b = _pair(grp, q, v, cs, scene.impact_speed)
-        f = tension[:, None] * u
-        total = total + _scatter(n, grp.a, arm_a, f) + _scatter(n, grp.b, arm_b, -f)
+        ps = _pair(grp, q, v, cs, scene.impact_speed)
+        f = ps.tension[:, None] * ps.u
+        total = total + _scatter(n, grp.a, ps.arm_a, f) + _scatter(n, grp.b, ps.arm_b, -f)
+        if isinstance(grp.element, ClearanceJoints) and grp.element.friction is not None:
+            total = total + _clearance_friction(n, grp, ps, v)
         if grp.carries_tension:
-            tensions.append(tension)
+            tensions.append(ps.tension)
+    element_tension = jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype)
+    if scene.joint_friction is not None:
+        total = total + _joint_friction(n, scene.joint_friction, q, v, element_tension)
 
     if scene.anchors is not None:
         an = scene.anchors
@@ -272,7 +321,7 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         roller_normal=rc.normal,
         sprocket_torque=rc.sprocket_torque,
         sprocket_force=rc.sprocket_force,
-        element_tension=jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype),
+        element_tension=element_tension,
     )
 
 

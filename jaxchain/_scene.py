@@ -24,6 +24,7 @@ __all__ = [
     "LinkSprings",
     "ClearanceJoints",
     "PairGroup",
+    "JointFriction",
     "Anchors",
     "Scene",
 ]
@@ -135,10 +136,17 @@ class ClearanceJoints(eqx.Module):
     The eccentricity ℓ = |x_b − x_a| is the pin's offset from the hole centre; contact when
     ℓ exceeds the radial clearance, with ``law`` (e.g. Johnson's conformal law, whose
     ``clearance`` field is the radial clearance). Tension T = law(ℓ − c, ℓ̇) ≥ 0.
+
+    With ``friction``, the contact also carries the tangential force ``friction.force(T,
+    slip)`` at the contact point, against the sliding of the pin's surface (radius
+    ``radius``) on the hole's (radius ``radius + clearance``): the joint's friction
+    moment, about μ·T·radius while it articulates.
     """
 
     law: AbstractContactLaw
     clearance: Float[Array, ""]
+    friction: CoulombFriction | None = None
+    radius: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
 
     def tension(self, length, rate, impact_speed):
         return self.law.normal_force(length - self.clearance, rate, impact_speed)
@@ -161,6 +169,32 @@ class PairGroup(eqx.Module):
     rb: Float[Array, "P 2"]
     element: LinkSprings | ClearanceJoints
     carries_tension: bool = eqx.field(static=True, default=True)
+
+
+class JointFriction(eqx.Module):
+    """Friction in the articulating joints of the lumped chain (whose links have no
+    rotational freedom of their own).
+
+    Joint j sits at body ``joint[j]``, between the link from ``before[j]`` and the link
+    to ``after[j]``; its pin (radius ``pin_radius``) turns in its bush at the links'
+    relative rate Ω = φ̇_after − φ̇_before. The friction moment on the link after is
+    M = ``law.force(N·r, r·Ω)`` = −μ·N·r·tanh(r·Ω/v_s), with −M on the link before: the
+    pin/bush contact's Coulomb friction at the sliding speed r·Ω of the pin's surface.
+    N is the joint's load, the mean tension of the two links (``link_before``,
+    ``link_after``: indices into the tension-carrying elements), its positive part
+    smoothed over ±``load_width``. Each moment acts as a couple of forces ±M/ℓ across
+    its link; the power −M·Ω is never positive. At rest (Ω = 0) it adds nothing, so the
+    statics do not change.
+    """
+
+    before: Int[Array, " J"]
+    joint: Int[Array, " J"]
+    after: Int[Array, " J"]
+    link_before: Int[Array, " J"]
+    link_after: Int[Array, " J"]
+    law: CoulombFriction
+    pin_radius: Float[Array, ""]
+    load_width: Float[Array, ""]
 
 
 class Anchors(eqx.Module):
@@ -194,6 +228,8 @@ class Scene(eqx.Module):
         friction: roller/tooth friction or None.
         sprockets: the sprockets (static count).
         anchors: tension anchors of an open strand, or None.
+        joint_friction: friction in the lumped chain's joints, or None (the clearance
+            fidelity carries it in its :class:`ClearanceJoints`).
         impact_speed: reference impact speed of the history-free contact damping [m/s]
             (a law with restitution e gives e at this impact speed; see docs).
         q0, v0: (N, 3) initial positions (x, y, φ) and velocities.
@@ -216,6 +252,7 @@ class Scene(eqx.Module):
     friction: CoulombFriction | None
     sprockets: tuple[Sprocket, ...]
     anchors: Anchors | None
+    joint_friction: JointFriction | None
     impact_speed: Float[Array, ""]
     q0: Float[Array, "N 3"]
     v0: Float[Array, "N 3"]

@@ -6,6 +6,7 @@ scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
 
 from ._ensemble import stack as stack
 from ._scenes.build import (
+    JOINT_FRICTION as JOINT_FRICTION,
     joint_law as joint_law,
     link_stiffness as link_stiffness,
     roller_law as roller_law,

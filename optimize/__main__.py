@@ -119,6 +119,12 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         help="contact-onset regularization of the optimized model [m]",
     )
     ap.add_argument(
+        "--joint-slip",
+        type=float,
+        default=d.joint_slip,
+        help="joint friction's creep speed in the optimized model [m/s] (nominal 2e-3)",
+    )
+    ap.add_argument(
         "--temperature",
         type=float,
         default=d.temperature,
@@ -163,6 +169,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         learning_rate=args.learning_rate,
         dt=args.dt,
         contact_width=args.contact_width,
+        joint_slip=args.joint_slip,
         temperature=args.temperature,
         baseline_budget=args.baseline_budget,
     )

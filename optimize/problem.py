@@ -44,6 +44,7 @@ class Settings:
     temperature: float = 0.02  # soft-max temperature, fraction of the reference peak
     dt: float = 4e-6  # fixed step of the optimized solve [s]
     contact_width: float = 3e-6  # roller/tooth onset regularization of the optimized model [m]
+    joint_slip: float = 2e-2  # joint friction's creep speed in the optimized model [m/s]
     ensemble: tuple[float, ...] = (0.9, 1.0, 1.1)  # speed factors of the operating points
     iterations: int = 25
     optimizer: str = "adam"
@@ -61,7 +62,7 @@ class Settings:
             if not 7 <= getattr(self, name) <= 250:
                 raise ValueError(f"{name} must be in [7, 250], got {getattr(self, name)}")
         reals = ["speed_rpm", "load", "temperature", "dt", "learning_rate", "remeasure_rtol"]
-        for name in reals + ["contact_width"]:
+        for name in reals + ["contact_width", "joint_slip"]:
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be a finite number, got {getattr(self, name)}")
         for name in reals[:1] + reals[2:]:
@@ -92,6 +93,11 @@ class Settings:
                 "contact_width must be in [0, 2e-5] m (nominal law: 1e-8), got "
                 f"{self.contact_width}"
             )
+        if not 1e-4 <= self.joint_slip <= 0.1:
+            raise ValueError(
+                "joint_slip must be in [1e-4, 0.1] m/s (nominal joint friction: "
+                f"{float(jc.scenes.JOINT_FRICTION.slip_velocity)}), got {self.joint_slip}"
+            )
         if self.dt > 2e-5:
             raise ValueError(f"dt must be <= 2e-5 s to resolve the meshing impacts, got {self.dt}")
 
@@ -113,7 +119,13 @@ class Problem:
     objective: ProfileObjective | None = None
     baselines: dict = field(default_factory=dict)
 
-    def build(self, profile, speed_factor: float = 1.0, roller_contact=None):
+    def build(
+        self,
+        profile,
+        speed_factor: float = 1.0,
+        roller_contact=None,
+        joint_friction=jc.scenes.JOINT_FRICTION,
+    ):
         s = self.settings
         rpm = s.speed_rpm * speed_factor
         if s.scene == "engagement":
@@ -127,6 +139,7 @@ class Problem:
                 profile=profile,
                 n_entry=n_entry,
                 roller_contact=roller_contact,
+                joint_friction=joint_friction,
             )
         driven = jc.ToothProfile.iso606(self.chain, s.driven_teeth, "mid")
         return jc.scenes.drive(
@@ -137,6 +150,7 @@ class Problem:
             fidelity=s.fidelity,
             profiles=(profile, driven),
             roller_contact=roller_contact,
+            joint_friction=joint_friction,
         )
 
     @property
@@ -151,9 +165,20 @@ class Problem:
         into the objective). Every result is re-measured with the nominal law."""
         return jc.scenes.roller_law(self.chain, 0.7, width=self.settings.contact_width)
 
+    def design_joint_friction(self):
+        """The optimized model's joint friction: the nominal μ with its creep band widened
+        to ``joint_slip`` (the nominal 2 mm/s band makes the joints' sticking a decay of
+        about a microsecond, which an explicit fixed step of a few µs does not follow:
+        the gradient then blows up). Every result is re-measured with the nominal."""
+        mu = jc.scenes.JOINT_FRICTION.coefficient
+        return jc.contact.CoulombFriction(coefficient=mu, slip_velocity=self.settings.joint_slip)
+
     def members(self, profile):
-        law = self.design_law()
-        return [self.build(profile, f, roller_contact=law) for f in self.settings.ensemble]
+        law, joints = self.design_law(), self.design_joint_friction()
+        return [
+            self.build(profile, f, roller_contact=law, joint_friction=joints)
+            for f in self.settings.ensemble
+        ]
 
     def make_objective(self, reference: float) -> ProfileObjective:
         s = self.settings

@@ -51,3 +51,12 @@ def count_vector_field_calls(monkeypatch):
     import jaxchain._solve as S
 
     return count_calls(monkeypatch, S, "forces")
+
+
+def fixed_step_joints():
+    """Joint friction for fixed-step solves of a few µs: the nominal μ, its creep band
+    widened from 2 mm/s to 20 mm/s (the nominal band sticks over ~1 µs, which an explicit
+    step of 4 µs does not follow: the joints chatter and gradients blow up)."""
+    import jaxchain as jc
+
+    return jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)

@@ -11,7 +11,7 @@ import pytest
 import jaxchain as jc
 from jaxchain.design import DesignSpace, ProfileObjective, soft_peak_force, window_weight
 
-from helpers import count_vector_field_calls
+from helpers import count_vector_field_calls, fixed_step_joints
 
 # one worker for the design tests and the main job: they compile the same objective
 pytestmark = pytest.mark.xdist_group("design")
@@ -25,11 +25,20 @@ SPACE = DesignSpace.iso606(CHAIN, Z)
 # the design model's roller law: contact onset regularized over 3 µm so that fixed steps
 # of a few µs resolve it (the nominal 10 nm is crossed inside one step)
 DESIGN_LAW = jc.scenes.roller_law(CHAIN, 0.7, width=3e-6)
+# and its joint friction's creep band widened (measured with the nominal band at 4 µs:
+# value 899 N, gradient 1e41; widened: AD = FD to 1e-7…8e-6 of |∇J|)
+DESIGN_JOINTS = fixed_step_joints()
 
 
 def _build(profile, law=DESIGN_LAW):
     return jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=3, roller_contact=law
+        CHAIN,
+        Z,
+        speed_rpm=RPM,
+        profile=profile,
+        n_entry=3,
+        roller_contact=law,
+        joint_friction=DESIGN_JOINTS,
     )
 
 

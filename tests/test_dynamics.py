@@ -4,6 +4,7 @@ static tension, energy balance, action = reaction, self-convergence; failures as
 import math
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import energy, forces, initial_state
 
-from helpers import brute_parabola_max, count_vector_field_calls
+from helpers import brute_parabola_max, count_vector_field_calls, fixed_step_joints
 
 
 def period(rpm, z):
@@ -39,8 +40,10 @@ def small_drive():
 
 def test_polygonal_action(slow_engagement):
     """Span speed = ωR·cos φ, φ sweeping ±π/z as the polygon turns: it fluctuates at the
-    tooth-passing frequency with relative amplitude 1 − cos(π/z) (6.03 % for z = 9)."""
-    sc = slow_engagement
+    tooth-passing frequency with relative amplitude 1 − cos(π/z) (6.03 % for z = 9). The
+    closed form is the ideal hinge chain's: the joints frictionless (with the joints'
+    friction the filtered amplitude measures 4.87 %)."""
+    sc = eqx.tree_at(lambda s: s.joint_friction, slow_engagement, None)
     z, T = 9, period(300, 9)
     sol = jc.simulate(sc, 3 * T, n_save=3001)
     dirn = np.asarray(sc.anchors.direction[0])
@@ -198,7 +201,7 @@ def test_sprockets_of_different_teeth_in_one_vmapped_contact(small_drive):
 
 
 def test_energy_balance_without_dissipation():
-    """Restitution 1, undamped links, no friction, no load: kinetic + elastic (links and
+    """Restitution 1, undamped links, frictionless joints, no load: kinetic + elastic (links and
     contact potentials) changes exactly by the driver's work ∫ −τ_chain·ω1 dt."""
     sc = jc.scenes.drive(
         "08B",
@@ -209,6 +212,7 @@ def test_energy_balance_without_dissipation():
         pretension=300.0,
         restitution=1.0,
         link_damping=0.0,
+        joint_friction=None,
     )
     t1 = 0.5 * period(600, 9)
     ts = jnp.linspace(0.0, t1, 4001)
@@ -263,10 +267,12 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     step's consecutive samples at quarter steps (dense-output states), read back
     independently by saving at those times and maximizing each parabola by brute force.
     At this step (4.1 µs, through the first meshing impact, whose force rises over ~5 µs)
-    the samples alone are 0.53 % below the top of this solve's own dense output, the
-    parabolas 0.12 % above (the pulse is lopsided), the step ends alone 5 % below."""
+    the samples alone are 0.29 % below the top of this solve's own dense output, the
+    parabolas 0.14 % above (the pulse is lopsided), the step ends alone more than 3 %
+    below (measured with the joints' friction; frictionless: 0.53 %, 0.12 %, 5 %)."""
     dt, n = 4.1e-6, 1000
     fixed = dict(solver=diffrax.Tsit5(), stepsize_controller=diffrax.ConstantStepSize(), dt0=dt)
+    engagement18 = eqx.tree_at(lambda s: s.joint_friction.law, engagement18, fixed_step_joints())
     k = jc.observers.PeakRecord().samples
     # saving at the samples' own times adds only values the step tops already bound
     quarter = jc.simulate(engagement18, n * dt, ts=dt * np.arange(k * n + 1) / k, **fixed)
@@ -284,7 +290,7 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     top = float(np.asarray(fine.roller_sprocket_force).max())
     samples = f.max()
     assert abs(recorded / top - 1) < 2e-3
-    assert top - samples > 3 * abs(top - recorded)
+    assert top - samples > 1.5 * abs(top - recorded)
     assert f[::k].max() < 0.97 * top  # step ends alone
 
 
@@ -294,8 +300,14 @@ def test_engagement_starts_in_equilibrium(engagement18):
     contact) on the wrap, and the first tooth period has no start-up shock."""
     sc = engagement18
     fr = forces(0.0, initial_state(sc), sc)  # moving: transport velocities, guides moving
-    # what is left is damping from the transport velocities' polygonal mismatch
-    assert float(jnp.max(jnp.abs(fr.body))) < 0.02 * 1000.0
+    # what is left is damping from the transport velocities' polygonal mismatch, and the
+    # friction of the joints articulating where the spans meet the wrap (running, not a
+    # shock): at most μ·T·r/p per link end, 17 N at 1000 N, on each of a joint's links
+    frictionless = eqx.tree_at(lambda s: s.joint_friction, sc, None)
+    rest = forces(0.0, initial_state(sc), frictionless)
+    assert float(jnp.max(jnp.abs(rest.body))) < 0.02 * 1000.0
+    couple = 0.1 * 1000.0 * jc.ChainSpec.iso606("08B").pin_diameter / 2 / 0.0127
+    assert float(jnp.max(jnp.abs(fr.body - rest.body))) < 3 * couple
     tension = np.asarray(fr.element_tension)
     np.testing.assert_allclose(tension[0], 1000.0, rtol=0.02)
     np.testing.assert_allclose(tension[-1], 100.0, rtol=0.05)

@@ -27,7 +27,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._ensemble import _group_cost, _padded, _plan
 
-from helpers import count_vector_field_calls
+from helpers import count_vector_field_calls, fixed_step_joints
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEEDS = np.array([300.0, 800.0, 1400.0, 2000.0])  # rpm
@@ -42,7 +42,9 @@ FIXED = dict(
 
 
 def strand(rpm, teeth=9, **kw):
+    # fixed steps of up to 5 µs: the joint friction's creep band widened to follow them
     kw = {"wrap": 4, "n_entry": 3, "n_exit": 2, "settle": False, **kw}
+    kw.setdefault("joint_friction", fixed_step_joints())
     return jc.scenes.engagement("08B", teeth, speed_rpm=rpm, **kw)
 
 
@@ -87,7 +89,7 @@ def matches_simulate(ens, scenes):
     assert peaks.min() > 1000.0  # rollers snap into their seats: real contact forces
     for i, s in enumerate(singles):
         np.testing.assert_allclose(ens.roller_sprocket_force[i], s.roller_sprocket_force, atol=1e-6)
-        np.testing.assert_allclose(ens.roller_position[i], s.roller_position, rtol=1e-9)
+        np.testing.assert_allclose(ens.roller_position[i], s.roller_position, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(ens.link_tension[i], s.link_tension, rtol=1e-9, atol=1e-6)
         m = ens.member(i)
         assert m.ok and float(m.peak_contact_force) == float(ens.peak_contact_force[i])

@@ -28,6 +28,7 @@ def check_common(
     form,
     restitution,
     friction,
+    joint_friction,
     impact_speed,
     rollers_on_bush,
     roller_contact,
@@ -42,10 +43,9 @@ def check_common(
     checks.choice("fidelity", fidelity, ("lumped", "clearance"))
     checks.choice("form", form, ("min", "max", "mid"))
     checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
-    if friction is not None:
-        checks.instance(
-            "friction", friction, CoulombFriction, "a jc.contact.CoulombFriction or None"
-        )
+    for name, law in (("friction", friction), ("joint_friction", joint_friction)):
+        if law is not None:
+            checks.instance(name, law, CoulombFriction, "a jc.contact.CoulombFriction or None")
     checks.real("impact_speed", impact_speed, lo=0.0, lo_open=True, unit="m/s")
     checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped"))
     if roller_contact is not None:

@@ -11,7 +11,7 @@ from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
-from .build import assemble, chain_bodies, roller_law
+from .build import JOINT_FRICTION, assemble, chain_bodies, roller_law
 from .common import (
     check_below_strength,
     check_common,
@@ -40,6 +40,7 @@ def drive(
     profiles: tuple[ToothProfile, ToothProfile] | None = None,
     restitution: float = 0.7,
     friction: CoulombFriction | None = None,
+    joint_friction: CoulombFriction | None = JOINT_FRICTION,
     driven_inertia: float | None = None,
     load_ramp: float | None = None,
     impact_speed: float = 1.0,
@@ -74,6 +75,10 @@ def drive(
         form: ISO 606 tooth form of both sprockets (ignored if ``profiles`` is given).
         restitution: coefficient of restitution of every contact at ``impact_speed``.
         friction: roller/tooth friction (None: frictionless).
+        joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
+            clearance fidelity); default lubricated steel on steel, μ = 0.1
+            (``jc.scenes.JOINT_FRICTION``); None: frictionless joints. It is what damps
+            the spans' transverse vibration; see ``benchmarks/tension_climb.py``.
         driven_inertia: [kg·m²]; default a steel disc of the pitch diameter.
         impact_speed: reference impact speed of the history-free damping [m/s].
         rollers_on_bush: clearance fidelity: roller as its own body on a clearance joint
@@ -94,6 +99,7 @@ def drive(
         form=form,
         restitution=restitution,
         friction=friction,
+        joint_friction=joint_friction,
         impact_speed=impact_speed,
         rollers_on_bush=rollers_on_bush,
         roller_contact=roller_contact,
@@ -160,6 +166,7 @@ def drive(
         restitution=restitution,
         rollers_on_bush=rollers_on_bush,
         damping_ratio=link_damping,
+        joint_friction=joint_friction,
         link_load=pretension + load_torque / float(profiles[1].pitch_radius),
     )
     if driven_inertia is None:

@@ -14,7 +14,7 @@ from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Anchors, Scene, Sprocket
-from .build import assemble, chain_bodies, link_stiffness, roller_law
+from .build import JOINT_FRICTION, assemble, chain_bodies, link_stiffness, roller_law
 from .common import (
     check_below_strength,
     check_common,
@@ -44,6 +44,7 @@ def engagement(
     profile: ToothProfile | None = None,
     restitution: float = 0.7,
     friction: CoulombFriction | None = None,
+    joint_friction: CoulombFriction | None = JOINT_FRICTION,
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,
@@ -74,6 +75,7 @@ def engagement(
         form=form,
         restitution=restitution,
         friction=friction,
+        joint_friction=joint_friction,
         impact_speed=impact_speed,
         rollers_on_bush=rollers_on_bush,
         roller_contact=roller_contact,
@@ -133,6 +135,7 @@ def engagement(
         restitution=restitution,
         rollers_on_bush=rollers_on_bush,
         damping_ratio=link_damping,
+        joint_friction=joint_friction,
         link_load=tension,
     )
     k_span = link_stiffness(chain, tension) / 50 if span_stiffness is None else span_stiffness
