@@ -421,7 +421,7 @@ def summary(r: dict) -> str:
         lines.append(
             f"  {law:8s} law: optimized {r['remeasured']['optimized'][law]['peak_N']:.0f} N vs "
             f"{b} {r['remeasured'][b][law]['peak_N']:.0f} N -> "
-            f"{100 * r['reduction_vs_better_baseline'][law]:.1f} % lower than the best ISO form"
+            f"{-100 * r['reduction_vs_better_baseline'][law]:+.1f} % against the best ISO form"
         )
     nm = r["gradient_free"]
     if not nm.get("skipped"):

@@ -267,9 +267,10 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     step's consecutive samples at quarter steps (dense-output states), read back
     independently by saving at those times and maximizing each parabola by brute force.
     At this step (4.1 µs, through the first meshing impact, whose force rises over ~5 µs)
-    the samples alone are 0.29 % below the top of this solve's own dense output, the
-    parabolas 0.14 % above (the pulse is lopsided), the step ends alone more than 3 %
-    below (measured with the joints' friction; frictionless: 0.53 %, 0.12 %, 5 %)."""
+    the samples alone are 0.29 % below the top of this solve's own dense output (the
+    best of them falls on a step end), the parabolas 0.14 % above (the pulse is
+    lopsided); measured with the joints' friction (frictionless: samples 0.53 % below,
+    parabolas 0.12 % above, step ends alone 5 % below)."""
     dt, n = 4.1e-6, 1000
     fixed = dict(solver=diffrax.Tsit5(), stepsize_controller=diffrax.ConstantStepSize(), dt0=dt)
     engagement18 = eqx.tree_at(lambda s: s.joint_friction.law, engagement18, fixed_step_joints())
@@ -291,7 +292,7 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     samples = f.max()
     assert abs(recorded / top - 1) < 2e-3
     assert top - samples > 1.5 * abs(top - recorded)
-    assert f[::k].max() < 0.97 * top  # step ends alone
+    assert recorded >= samples >= f[::k].max()  # never below the samples
 
 
 @pytest.mark.xdist_group("dynamics-engagement")
