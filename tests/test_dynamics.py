@@ -292,7 +292,7 @@ def test_peak_record_is_the_top_of_parabolas_through_quarter_step_samples(engage
     samples = f.max()
     assert abs(recorded / top - 1) < 2e-3
     assert top - samples > 1.5 * abs(top - recorded)
-    assert recorded >= samples >= f[::k].max()  # never below the samples
+    assert recorded >= samples  # never below the samples
 
 
 @pytest.mark.xdist_group("dynamics-engagement")

@@ -78,7 +78,8 @@ def drive(
         joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
             clearance fidelity); default lubricated steel on steel, μ = 0.1
             (``jc.scenes.JOINT_FRICTION``); None: frictionless joints. It is what damps
-            the spans' transverse vibration; see ``benchmarks/tension_climb.py``.
+            the spans' transverse vibration (the README's Limits give the
+            tension climb without it).
         driven_inertia: [kg·m²]; default a steel disc of the pitch diameter.
         impact_speed: reference impact speed of the history-free damping [m/s].
         rollers_on_bush: clearance fidelity: roller as its own body on a clearance joint
