@@ -283,6 +283,10 @@ def peak_tension(y: DriveState, scene: Scene) -> Array:
     return jnp.max(jnp.concatenate(tensions))
 
 
+# jitted: a solve calls the forces at every stage of its step, in its observers and in its
+# outputs; as a jitted function they are traced once per program instead of at every call
+# (measured on the design gradient: tracing 11.9 s -> 6.6 s, the same values)
+@jax.jit
 def forces(t, y: DriveState, scene: Scene) -> Forces:
     n = scene.n_bodies
     q, v = y.q, y.v

@@ -233,7 +233,7 @@ def remeasure(problem: Problem, profile, *, law: str = "johnson", rtol: float | 
     rows = []
     for f in s.ensemble:
         scene = problem.build(profile, f, roller_contact=contact)
-        n = int(min(60_001, max(2001, (problem.t1 - problem.t_start) / 0.5e-6)))
+        n = min(60_001, max(2001, math.ceil((problem.t1 - problem.t_start) / 0.5e-6) + 1))
         ts = np.linspace(problem.t_start, problem.t1, n)
         sol = jc.simulate(
             scene,

@@ -25,14 +25,57 @@ hypothesis.settings.register_profile("ci", deadline=None, max_examples=60, deran
 hypothesis.settings.load_profile("ci" if os.environ.get("CI") else "default")
 
 
-def pytest_collection_modifyitems(items):
-    """Workers take whole files (module-scoped fixtures then compile once), except the
-    notebooks, each of which is a unit of its own (``--dist loadgroup``)."""
-    import pytest
+# Heaviest units first (cold-cache durations on the 2-core machine): each worker takes the
+# next unit when it runs dry, so the long ones must not be left for the end. The notebooks
+# come last: their kernels load what the tests compiled for the same scenes (the design
+# objective, the settled strands, the re-measurement) from the persistent cache.
+FIRST = (
+    "test_design.py",
+    "test_dynamics.py",
+    "test_engagement.py",
+    "test_ensembles.py",
+    "test_clearance.py",
+    "test_failures.py",
+    "test_gap.py",
+)
+LAST = ("test_notebooks.py",)
 
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None:
-            name = item.module.__name__
-            if name.endswith("test_notebooks"):
-                name = item.name
-            item.add_marker(pytest.mark.xdist_group(name))
+
+def unit(nodeid: str) -> str:
+    """The unit of work a test belongs to: its file (a file's module-scoped fixtures and
+    compiled functions are built once, on one worker), except that each notebook is a unit
+    of its own and the main job's test joins the design tests (the same compiled
+    objective)."""
+    path = nodeid.split("::", 1)[0]
+    if path.endswith("test_notebooks.py"):
+        return nodeid
+    if path.endswith("test_main_job.py"):
+        return path.replace("test_main_job.py", "test_design.py")
+    return path
+
+
+def pytest_collection_modifyitems(items):
+    """Order the tests: ``FIRST``, the rest, ``LAST`` (stable within each)."""
+    rank = {name: i for i, name in enumerate(FIRST)}
+    rank.update({name: len(FIRST) + 1 + i for i, name in enumerate(LAST)})
+
+    def key(item):
+        return rank.get(item.nodeid.split("::", 1)[0].rsplit("/", 1)[-1], len(FIRST))
+
+    items.sort(key=key)
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadfile`` (the default run's) with the units above: xdist's own groups
+    (``--dist loadgroup``) rely on rewriting node ids, which pytest ≥ 9.2 ignores
+    (pytest-dev/pytest-xdist#1386)."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class UnitScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return unit(nodeid)
+
+    config.option.loadscopereorder = False  # keep the order above
+    return UnitScheduling(config, log)

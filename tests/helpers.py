@@ -60,3 +60,8 @@ def fixed_step_joints():
     import jaxchain as jc
 
     return jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
+
+
+def tooth_period(rpm, z):
+    """One tooth period [s] of a sprocket of ``z`` teeth at ``rpm``."""
+    return 60.0 / rpm / z

@@ -42,3 +42,17 @@ def test_fidelity_benchmark_quick(tmp_path):
         assert abs(v["tight_span_mean_N"]["mean"] / 1000.0 - 1) < 0.05
     assert res["rollers_fixed_vs_on_joint"]["cost_ratio"] > 0
     assert (tmp_path / "fidelity.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_tension_climb_benchmark_quick(tmp_path):
+    from benchmarks.tension_climb import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    s = res["statics"]
+    # the settled drive: mean tension the pretension, spans apart by the load over R2
+    assert abs(s["settled_mean_N"] / s["pretension_N"] - 1) < 0.05
+    assert all(r["result"] == "successful" for r in res["mu_sweep"])
+    # the driven sprocket turns at z1/z2 of the driver
+    assert all(abs(r["speed_ratio"] / s["speed_ratio"] - 1) < 0.02 for r in res["mu_sweep"])
+    assert (tmp_path / "tension_climb.png").stat().st_size > 10_000

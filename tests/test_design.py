@@ -13,9 +13,6 @@ from jaxchain.design import DesignSpace, ProfileObjective, soft_peak_force, wind
 
 from helpers import count_vector_field_calls, fixed_step_joints
 
-# one worker for the design tests and the main job: they compile the same objective
-pytestmark = pytest.mark.xdist_group("design")
-
 CHAIN = jc.ChainSpec.iso606("08B")
 Z, RPM = 18, 1000.0
 PERIOD = 60.0 / (Z * RPM)

@@ -9,9 +9,6 @@ import jaxchain as jc
 from jaxchain._design import ProfileObjective
 from optimize.__main__ import main, parse
 
-# one worker for the design tests and the main job: they compile the same objective
-pytestmark = pytest.mark.xdist_group("design")
-
 
 def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
     out = tmp_path / "run"

@@ -28,10 +28,12 @@ TEETH = 18
 
 @pytest.fixture(scope="module")
 def engaged():
-    """The meshing scene simulated over three tooth periods (compiles once: ~30 s)."""
+    """The meshing scene simulated over three tooth periods, with default options: the
+    program tests/test_engagement.py compiles for the same scene (the persistent
+    compilation cache shares it between the test workers)."""
     scene = jc.scenes.engagement("08B", TEETH, speed_rpm=RPM, n_entry=8)
     period = 60 / RPM / TEETH
-    sol = jc.simulate(scene, 3 * period, n_save=601)
+    sol = jc.simulate(scene, 3 * period)
     assert sol.ok, sol.message
     return scene, sol
 
@@ -217,8 +219,9 @@ def test_plot_snapshot_options(engaged):
     assert "[m/s]" in coll.colorbar.ax.get_ylabel()
     with pytest.raises(ValueError, match="color_by"):
         plot_snapshot(scene, sol, color_by="tension")
-    with pytest.raises(IndexError, match="601 save times"):
-        plot_snapshot(scene, sol, 601)
+    n = sol.ts.shape[0]  # 501
+    with pytest.raises(IndexError, match=f"index {n} out of range: the solution has {n} save"):
+        plot_snapshot(scene, sol, n)
 
 
 def test_animate_gif(engaged, tmp_path):
@@ -228,7 +231,7 @@ def test_animate_gif(engaged, tmp_path):
     assert path == tmp_path / "drive.gif"
     assert path.stat().st_size > 0
     with Image.open(path) as im:
-        assert im.n_frames == len(range(0, sol.ts.shape[0], 50))  # 13
+        assert im.n_frames == len(range(0, sol.ts.shape[0], 50))  # 11
         im.seek(im.n_frames - 1)
     assert len(plt.get_fignums()) == n_figs  # its own figure is closed again
 
@@ -237,9 +240,9 @@ def test_animate_into_given_figure(engaged, tmp_path):
     scene, sol = engaged
     fig = plt.figure()
     fig.add_subplot().plot([0, 1])
-    path = animate(scene, sol, str(tmp_path / "a.GIF"), stride=300, dpi=30, fig=fig)
+    path = animate(scene, sol, str(tmp_path / "a.GIF"), stride=200, dpi=30, fig=fig)
     with Image.open(path) as im:
-        assert im.n_frames == 3
+        assert im.n_frames == 3  # saves 0, 200, 400 of 501
     assert plt.fignum_exists(fig.number) and len(fig.axes) == 2  # drive + colorbar
 
 
