@@ -54,17 +54,32 @@ def build(speed_rpm: float, mu: float | None):
     return jc.scenes.drive(**SCENE, speed_rpm=speed_rpm, joint_friction=friction)
 
 
-def statics(t0: np.ndarray) -> dict:
-    """Closed-form span tensions and the settled layout's (``t0``: link tensions at t = 0)."""
-    spec = jc.ChainSpec.iso606(SCENE["chain"])
+def spans(sol, scene) -> tuple[np.ndarray, np.ndarray]:
+    """Mean tension of the links in the tight (upper) and the slack (lower) span at every
+    save: the links whose roller lies between the driver's pitch circle and the driven
+    wrap's leftmost point."""
+    x = np.asarray(sol.roller_position)  # (T, R, 2); link k starts at roller k
+    tension = np.asarray(sol.link_tension)
+    r1 = float(scene.sprockets[0].profile.pitch_radius)
+    r2 = float(scene.sprockets[1].profile.pitch_radius)
+    c2 = float(scene.sprockets[1].centre[0])
+    span = (x[..., 0] > r1) & (x[..., 0] < c2 - r2)
+    top, bottom = span & (x[..., 1] > 0), span & (x[..., 1] < 0)
+    mean = lambda m: np.sum(tension * m, axis=1) / np.maximum(m.sum(axis=1), 1)
+    return mean(top), mean(bottom)
+
+
+def statics(tight0: float, slack0: float) -> dict:
+    """Closed-form span tensions against the settled layout's (t = 0)."""
     z1, z2 = SCENE["teeth"]
-    r2 = spec.pitch / (2 * np.sin(np.pi / z2))
+    r2 = jc.ChainSpec.iso606(SCENE["chain"]).pitch / (2 * np.sin(np.pi / z2))
     return {
         "pretension_N": SCENE["pretension"],
-        "settled_mean_N": float(t0.mean()),
         "load_over_driven_radius_N": SCENE["load_torque"] / r2,
-        "settled_tight_N": float(t0.max()),
-        "settled_slack_N": float(t0.min()),
+        "settled_tight_N": tight0,
+        "settled_slack_N": slack0,
+        "settled_span_mean_N": 0.5 * (tight0 + slack0),
+        "settled_difference_N": tight0 - slack0,
         "speed_ratio": z1 / z2,
     }
 
@@ -78,6 +93,7 @@ def run(speed_rpm: float, mu: float | None, revs: float) -> dict:
     sol = jc.simulate(scene, revs * rev, n_save=n_save, throw=False)
     tension = np.asarray(sol.link_tension)
     wall = time.perf_counter() - t
+    tight, slack = spans(sol, scene)
     ts = np.asarray(sol.ts)
     last = ts >= ts[-1] - min(rev, ts[-1] / 2)
     omega = np.asarray(sol.sprocket_speed)
@@ -92,12 +108,16 @@ def run(speed_rpm: float, mu: float | None, revs: float) -> dict:
         "mean_tension_N": float(tension[last].mean()),
         "max_tension_N": float(tension[last].max()),
         "min_tension_N": float(tension[last].min()),
+        "tight_span_N": float(tight[last].mean()),
+        "slack_span_N": float(slack[last].mean()),
+        "span_mean_N": float(0.5 * (tight[last].mean() + slack[last].mean())),
         "speed_ratio": float(ratio),
         "driven_speed_swing": float(np.ptp(omega[last, 1]) / omega[last, 1].mean()),
     }
     print(
-        f"  {speed_rpm:6.0f} rpm  μ = {'none' if mu is None else mu:<5}  mean "
-        f"{row['mean_tension_N']:6.0f} N  max {row['max_tension_N']:6.0f} N  ratio "
+        f"  {speed_rpm:6.0f} rpm  μ = {'none' if mu is None else mu:<5}  links: mean "
+        f"{row['mean_tension_N']:6.0f} N  max {row['max_tension_N']:6.0f} N  spans "
+        f"{row['tight_span_N']:5.0f} / {row['slack_span_N']:4.0f} N  ratio "
         f"{row['speed_ratio']:.4f}  swing {row['driven_speed_swing']:.1%}  "
         f"{row['steps']:6d} steps  {wall:5.1f} s",
         flush=True,
@@ -107,7 +127,9 @@ def run(speed_rpm: float, mu: float | None, revs: float) -> dict:
         "mean_N": tension.mean(axis=1).tolist(),
         "max_N": tension.max(axis=1).tolist(),
         "min_N": tension.min(axis=1).tolist(),
-        "t0_tension_N": tension[0].tolist(),
+        "tight_N": tight.tolist(),
+        "slack_N": slack.tolist(),
+        "settled_spans_N": [float(tight[0]), float(slack[0])],
         "driven_over_nominal": (
             omega[:, 1] / (omega[0, 0] * SCENE["teeth"][0] / SCENE["teeth"][1])
         ).tolist(),
@@ -125,18 +147,16 @@ def chart(res: dict, path) -> None:
     colours = {"frictionless": "tab:red", "friction": "tab:blue"}
     for key, h in res["history"].items():
         c = colours[key]
-        a = ax[0, 0]
-        a.plot(h["t_rev"], h["mean_N"], c, label=f"{key}: mean")
-        a.fill_between(h["t_rev"], h["min_N"], h["max_N"], color=c, alpha=0.15, lw=0)
+        ax[0, 0].plot(h["t_rev"], h["tight_N"], c, lw=1, label=f"{key}: tight span")
+        ax[0, 0].plot(h["t_rev"], h["slack_N"], c, lw=1, ls="--", label=f"{key}: slack span")
         ax[1, 0].plot(h["t_rev"], h["driven_over_nominal"], c, lw=0.8, label=key)
     s = res["statics"]
-    ax[0, 0].axhline(
-        s["pretension_N"], color="k", ls="--", lw=0.8, label="pretension (static mean)"
-    )
+    for v in (s["settled_tight_N"], s["settled_slack_N"]):
+        ax[0, 0].axhline(v, color="k", lw=0.6)
     ax[0, 0].set(
         xlabel="driver revolutions",
-        ylabel="link tension [N]",
-        title="mean link tension (band: slack to tight link)",
+        ylabel="mean link tension in the span [N]",
+        title="span tensions (thin black: the settled statics)",
     )
     ax[0, 0].legend(fontsize=8)
     ax[1, 0].axhline(1.0, color="k", ls="--", lw=0.8)
@@ -148,9 +168,10 @@ def chart(res: dict, path) -> None:
     ax[1, 0].legend(fontsize=8)
     mu = [r for r in res["mu_sweep"]]
     xs = [r["mu"] if r["mu"] else 1e-4 for r in mu]
-    ax[0, 1].semilogx(xs, [r["mean_tension_N"] for r in mu], "o-", label="mean")
-    ax[0, 1].semilogx(xs, [r["max_tension_N"] for r in mu], "s--", label="largest")
-    ax[0, 1].axhline(s["pretension_N"], color="k", ls="--", lw=0.8)
+    ax[0, 1].semilogx(xs, [r["span_mean_N"] for r in mu], "o-", label="spans' mean")
+    ax[0, 1].semilogx(xs, [r["tight_span_N"] for r in mu], "^-", label="tight span")
+    ax[0, 1].semilogx(xs, [r["max_tension_N"] for r in mu], "s--", label="largest link")
+    ax[0, 1].axhline(s["settled_span_mean_N"], color="k", ls="--", lw=0.8)
     ax[0, 1].set(
         xlabel="joint friction coefficient μ (frictionless plotted at 1e-4)",
         ylabel="link tension, last revolution [N]",
@@ -161,10 +182,10 @@ def chart(res: dict, path) -> None:
         rows = [r for r in res["speed_sweep"] if (r["mu"] is None) == (key == "frictionless")]
         ax[1, 1].plot(
             [r["speed_rpm"] for r in rows],
-            [r["mean_tension_N"] for r in rows],
+            [r["span_mean_N"] for r in rows],
             "o-",
             color=c,
-            label=f"{key}: mean",
+            label=f"{key}: spans' mean",
         )
         ax[1, 1].plot(
             [r["speed_rpm"] for r in rows],
@@ -172,9 +193,9 @@ def chart(res: dict, path) -> None:
             "s--",
             color=c,
             alpha=0.6,
-            label=f"{key}: largest",
+            label=f"{key}: largest link",
         )
-    ax[1, 1].axhline(s["pretension_N"], color="k", ls="--", lw=0.8)
+    ax[1, 1].axhline(s["settled_span_mean_N"], color="k", ls="--", lw=0.8)
     ax[1, 1].set(
         xlabel="driver speed [rpm]", ylabel="link tension, last revolution [N]", title="speed sweep"
     )
@@ -216,12 +237,12 @@ def main(argv=None):
             res["history"]["frictionless"] = hist
         elif mu == default_mu:
             res["history"]["friction"] = hist
-    res["statics"] = s = statics(np.asarray(res["history"]["frictionless"].pop("t0_tension_N")))
-    res["history"]["friction"].pop("t0_tension_N")
+    res["statics"] = s = statics(*res["history"]["frictionless"].pop("settled_spans_N"))
+    res["history"]["friction"].pop("settled_spans_N")
     print(
-        f"statics: mean {s['settled_mean_N']:.1f} N (pretension {s['pretension_N']:.0f}), spans "
-        f"{s['settled_tight_N']:.0f} / {s['settled_slack_N']:.0f} N (difference "
-        f"{s['settled_tight_N'] - s['settled_slack_N']:.0f} N; T/r2 = "
+        f"statics: spans {s['settled_tight_N']:.0f} / {s['settled_slack_N']:.0f} N, their mean "
+        f"{s['settled_span_mean_N']:.0f} N (pretension {s['pretension_N']:.0f} N), their "
+        f"difference {s['settled_difference_N']:.0f} N (T/r2 = "
         f"{s['load_over_driven_radius_N']:.0f} N)",
         flush=True,
     )

@@ -78,8 +78,9 @@ def drive(
         joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
             clearance fidelity); default lubricated steel on steel, μ = 0.1
             (``jc.scenes.JOINT_FRICTION``); None: frictionless joints. It is what damps
-            the spans' transverse vibration (the README's Limits give the
-            tension climb without it).
+            the spans' transverse vibration: without it the spans' mean tension
+            climbs to several times the static (``python -m
+            benchmarks.tension_climb``).
         driven_inertia: [kg·m²]; default a steel disc of the pitch diameter.
         impact_speed: reference impact speed of the history-free damping [m/s].
         rollers_on_bush: clearance fidelity: roller as its own body on a clearance joint
