@@ -277,7 +277,7 @@ def test_adaptive_pilot_grouping_on_speeds_and_loads():
     singles = [jc.simulate(s, period, **kw) for s in scs]
     peaks = np.array([float(s.peak_contact_force) for s in singles])
     # each adaptive peak is within ~0.5 % of the converged one at rtol 1e-6
-    # (tests/test_dynamics.py::test_peak_force_self_converges): two solves within 1 %
+    # (tests/test_engagement.py::test_peak_force_self_converges): two solves within 1 %
     np.testing.assert_allclose(grouped.peak_contact_force, peaks, rtol=1e-2)
     np.testing.assert_allclose(one.peak_contact_force, peaks, rtol=1e-2)
 
