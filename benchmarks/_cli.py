@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import json
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 OUT = Path(__file__).parent / "results"
@@ -29,6 +32,21 @@ def parse(ap: argparse.ArgumentParser, argv=None) -> argparse.Namespace:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     return args
+
+
+def finish(
+    results: dict, out: Path, name: str, chart: Callable[[dict, Path], None], start: float
+) -> dict:
+    """End a study: its wall time since ``start`` and the load average at the end into
+    ``results``, ``out/<name>.json`` and the chart ``out/<name>.png`` written, and said."""
+    from benchmarks.work_precision import loadavg  # (work_precision imports this module)
+
+    results["total_s"] = time.perf_counter() - start
+    results["machine"]["loadavg_at_end"] = loadavg()
+    (out / f"{name}.json").write_text(json.dumps(results, indent=1))
+    chart(results, out / f"{name}.png")
+    print(f"wrote {out / f'{name}.json'} and {name}.png ({results['total_s']:.0f} s)")
+    return results
 
 
 #: The studies' scenes have frictionless chain joints (``joint_friction=None``): they

@@ -27,7 +27,6 @@ the statics' time.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 
@@ -38,8 +37,8 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
-from benchmarks.work_precision import loadavg, machine_info, tooth_period  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, finish, parse, parser  # noqa: E402
+from benchmarks.work_precision import machine_info, tooth_period  # noqa: E402
 
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)
@@ -215,12 +214,7 @@ def main(argv=None):
             f"×{c['cost_ratio']:.2f}",
             flush=True,
         )
-    results["total_s"] = time.perf_counter() - start
-    results["machine"]["loadavg_at_end"] = loadavg()
-    (args.out / "fidelity.json").write_text(json.dumps(results, indent=1))
-    chart(results, args.out / "fidelity.png")
-    print(f"wrote {args.out / 'fidelity.json'} and fidelity.png ({results['total_s']:.0f} s)")
-    return results
+    return finish(results, args.out, "fidelity", chart, start)
 
 
 if __name__ == "__main__":

@@ -44,7 +44,6 @@ the field 128 times per Jacobian).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 
@@ -56,14 +55,13 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
+from benchmarks._cli import finish, parse, parser  # noqa: E402
 from benchmarks.work_precision import (  # noqa: E402
     ATOL_PER_RTOL,
     SOLVERS,
     STYLE,
     best_table,
     engagement_scene,
-    loadavg,
     machine_info,
     more_repeats,
     reference,
@@ -762,14 +760,7 @@ def main(argv=None):
             f"({ens['throughput_gain']:.1f}x throughput)"
         )
     results["target_speedup"] = 30.0
-    results["total_s"] = time.perf_counter() - start
-    results["machine"]["loadavg_at_end"] = loadavg()
-    (args.out / "scipy_engagement.json").write_text(json.dumps(results, indent=1))
-    chart(results, args.out / "scipy_engagement.png")
-    print(
-        f"wrote {args.out / 'scipy_engagement.json'} and scipy_engagement.png "
-        f"({results['total_s']:.0f} s)"
-    )
+    finish(results, args.out, "scipy_engagement", chart, start)
 
 
 STYLE_SP = {

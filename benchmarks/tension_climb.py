@@ -27,7 +27,6 @@ Measured, with frictionless joints and with the default joint friction
 from __future__ import annotations
 
 import datetime
-import json
 import time
 
 import jax
@@ -37,8 +36,8 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import parse, parser  # noqa: E402
-from benchmarks.work_precision import loadavg, machine_info  # noqa: E402
+from benchmarks._cli import finish, parse, parser  # noqa: E402
+from benchmarks.work_precision import machine_info  # noqa: E402
 
 SCENE = dict(chain="10A", teeth=(13, 26), n_links=60, load_torque=30.0, pretension=300.0)
 NOMINAL_RPM = 600.0
@@ -255,12 +254,7 @@ def main(argv=None):
             else:
                 row, _ = run(rpm, mu, p["revs"])
             res["speed_sweep"].append(row)
-    res["total_s"] = time.perf_counter() - start
-    res["machine"]["loadavg_at_end"] = loadavg()
-    (args.out / "tension_climb.json").write_text(json.dumps(res, indent=1))
-    chart(res, args.out / "tension_climb.png")
-    print(f"wrote {args.out / 'tension_climb.json'} and tension_climb.png ({res['total_s']:.0f} s)")
-    return res
+    return finish(res, args.out, "tension_climb", chart, start)
 
 
 if __name__ == "__main__":

@@ -35,7 +35,6 @@ skipped once one run exceeds a time budget (recorded as ``skipped``).
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import platform
@@ -50,7 +49,7 @@ import equinox as eqx  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, finish, parse, parser  # noqa: E402
 
 RPM = 1000.0
 ATOL_PER_RTOL = 1e-3  # atol = 1e-3·rtol: positions ~5e-2 m, speeds ~1 m/s
@@ -490,14 +489,7 @@ def main(argv=None):
             k: list(v) if isinstance(v, tuple) else v for k, v in DRIVE.items()
         }
         results["drive"]["driver_tooth_periods"] = p["drv_periods"]
-    results["total_s"] = time.perf_counter() - start
-    results["machine"]["loadavg_at_end"] = loadavg()
-    (args.out / "work_precision.json").write_text(json.dumps(results, indent=1))
-    chart(results, args.out / "work_precision.png")
-    print(
-        f"wrote {args.out / 'work_precision.json'} and work_precision.png "
-        f"({results['total_s']:.0f} s)"
-    )
+    finish(results, args.out, "work_precision", chart, start)
 
 
 def chart(results, path):
