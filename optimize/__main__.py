@@ -85,6 +85,12 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         default=None,
         help="engagement: entry tension [N] (default 1000); drive: load torque [N·m] (default 20)",
     )
+    ap.add_argument(
+        "--pretension",
+        type=float,
+        default=d.pretension,
+        help=f"drive: chain tension at rest [N] (default {d.pretension:g})",
+    )
     ap.add_argument("--fidelity", choices=["lumped", "clearance"], default=d.fidelity)
     ap.add_argument(
         "--periods", type=int, default=None, help=f"tooth periods simulated (default {d.periods})"
@@ -160,6 +166,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         driven_teeth=args.driven_teeth,
         speed_rpm=args.speed,
         load=args.load if args.load is not None else default_load,
+        pretension=args.pretension,
         fidelity=args.fidelity,
         periods=args.periods,
         warmup=args.warmup,
@@ -201,7 +208,10 @@ def main(argv=None) -> dict:
     except KeyboardInterrupt:
         sys.exit(130)
     except ValueError as e:  # bad input found while setting up (e.g. a mismatched resume)
-        raise SystemExit(f"python -m optimize: error: {e}") from None
+        hint = ""
+        if settings.scene == "drive" and "pretension" in str(e):  # the builder's words
+            hint = " (here: --pretension [N], --load [N·m])"
+        raise SystemExit(f"python -m optimize: error: {e}{hint}") from None
     except (jc.SolveError, RunFailed) as e:  # a simulation failed: its message says why
         raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
 

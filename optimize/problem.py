@@ -38,6 +38,7 @@ class Settings:
     driven_teeth: int = 36  # drive scene only
     speed_rpm: float = 1000.0
     load: float = 1000.0  # engagement: entry-span tension [N]; drive: load torque [N·m]
+    pretension: float = 200.0  # drive scene only: chain tension at rest [N]
     fidelity: str = "lumped"
     periods: int = 2  # simulated tooth periods of the designed sprocket
     warmup: int = 1  # periods before the objective's window opens
@@ -70,6 +71,8 @@ class Settings:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if self.load < 0:
             raise ValueError(f"load must be >= 0, got {self.load}")
+        if not (math.isfinite(self.pretension) and self.pretension > 0):
+            raise ValueError(f"pretension must be a finite number > 0 [N], got {self.pretension}")
         if self.baseline_budget < 0:
             raise ValueError(
                 f"baseline_budget must be >= 0 (0 skips it), got {self.baseline_budget}"
@@ -147,6 +150,7 @@ class Problem:
             (s.teeth, s.driven_teeth),
             speed_rpm=rpm,
             load_torque=s.load,
+            pretension=s.pretension,
             fidelity=s.fidelity,
             profiles=(profile, driven),
             roller_contact=roller_contact,
@@ -155,7 +159,7 @@ class Problem:
 
     @property
     def take_up(self) -> float:
-        return 2 * 200.0 if self.settings.scene == "drive" else 0.0
+        return 2 * self.settings.pretension if self.settings.scene == "drive" else 0.0
 
     def design_law(self):
         """The optimized model's roller/tooth law: the nominal one with its contact-onset

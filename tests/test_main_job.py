@@ -85,6 +85,9 @@ def test_bad_options_are_explained():
         (["--baseline-budget", "-3"], "baseline_budget must be >= 0"),
         (["--ensemble", "1,nan"], r"ensemble speed factors must be in \[0.2, 5\]"),
         (["--dt", "1e-3"], "dt must be <= 2e-5 s"),
+        (["--pretension", "-1"], r"pretension must be a finite number > 0 \[N\], got -1.0"),
+        # a drive whose load the pretension cannot carry: the builder's fix, in options
+        (["--scene", "drive", "--load", "30"], r"pretension >= 206.4 N.*--pretension \[N\]"),
         (["--out", "README.md"], "README.md is a file; give a folder"),
         (["--out", "/proc/no/such"], "is not a writable folder"),
     ],
