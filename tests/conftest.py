@@ -19,6 +19,7 @@ jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_platforms", "cpu")
 
 import hypothesis  # noqa: E402
+import pytest  # noqa: E402
 
 hypothesis.settings.register_profile("default", deadline=None, max_examples=60, print_blob=True)
 hypothesis.settings.register_profile("ci", deadline=None, max_examples=60, derandomize=True)
@@ -65,6 +66,7 @@ def pytest_collection_modifyitems(items):
     items.sort(key=key)
 
 
+@pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: absent without it (-p no:xdist)
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadfile`` (the default run's) with the units above: xdist's own groups
     (``--dist loadgroup``) rely on rewriting node ids, which pytest ≥ 9.2 ignores
