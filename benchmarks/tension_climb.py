@@ -7,17 +7,18 @@ Writes ``benchmarks/results/tension_climb.json`` and ``tension_climb.png``.
 
 The drive is ``jc.scenes.drive("10A", (13, 26), n_links=60, speed_rpm=600,
 load_torque=30, pretension=300)``, lumped, settled, Tsit5 at rtol 1e-6. Its independent
-anchors are the statics: at rest the mean link tension is the pretension, the tight and
-slack spans differ by the load torque over the driven pitch radius; in motion the mean
-driven speed is the driver's times z1/z2.
+anchors are the statics: at rest the spans' mean tension is the pretension and the tight
+and slack spans differ by the load torque over the driven pitch radius; in motion the
+mean driven speed is the driver's times z1/z2.
 
 Measured, with frictionless joints and with the default joint friction
 (``jc.scenes.JOINT_FRICTION``, μ = 0.1):
 
 * the history over two driver revolutions: mean link tension, tight- and slack-span
   tension, driven speed;
-* per run, over the last driver revolution: mean and largest link tension, the driven
-  speed's mean against the closed-form ratio and its swing, steps and wall time;
+* per run, over the last driver revolution: tight- and slack-span tension, mean and
+  largest link tension, the driven speed's mean against the closed-form ratio and its
+  swing, steps and wall time;
 * a sweep of the friction coefficient at the nominal speed (any friction removes the
   climb, or only enough of it?);
 * a sweep of the driver speed, with and without friction (does the climb scale with the
@@ -83,8 +84,9 @@ def statics(tight0: float, slack0: float) -> dict:
     }
 
 
-def run(speed_rpm: float, mu: float | None, revs: float) -> dict:
-    """One solve over ``revs`` driver revolutions; figures over the last revolution."""
+def run(speed_rpm: float, mu: float | None, revs: float) -> tuple[dict, dict]:
+    """One solve over ``revs`` driver revolutions: its row of figures (over the last
+    revolution) and its history."""
     scene = build(speed_rpm, mu)
     rev = 60.0 / speed_rpm
     n_save = int(SAVES_PER_REV * revs) + 1
@@ -165,7 +167,7 @@ def chart(res: dict, path) -> None:
         title="driven speed",
     )
     ax[1, 0].legend(fontsize=8)
-    mu = [r for r in res["mu_sweep"]]
+    mu = res["mu_sweep"]
     xs = [r["mu"] if r["mu"] else 1e-4 for r in mu]
     ax[0, 1].semilogx(xs, [r["span_mean_N"] for r in mu], "o-", label="spans' mean")
     ax[0, 1].semilogx(xs, [r["tight_span_N"] for r in mu], "^-", label="tight span")
