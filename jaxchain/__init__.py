@@ -19,6 +19,7 @@ from ._ensemble import (
     EnsembleSolution as EnsembleSolution,
     simulate_ensemble as simulate_ensemble,
 )
+from ._freeform import Flank as Flank, FreeformProfile as FreeformProfile
 from ._gap import (
     gap_contact as gap_contact,
     nearest_gap as nearest_gap,

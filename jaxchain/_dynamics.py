@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._gap import GapShape, gap_contact
+from ._gap import gap_contact, gap_shapes
 from ._numerics import cross2, safe_norm, safe_normalize, smooth_ramp
 from ._scene import ClearanceJoints, JointFriction, LinkSprings, Scene
 
@@ -155,7 +155,7 @@ def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     r = scene.roller_radius
     n_r = xr.shape[0]
     slots = _contact_slots(scene, n_r)
-    shapes = GapShape.stack([s.profile for s in scene.sprockets])
+    shapes = gap_shapes([s.profile for s in scene.sprockets])
     centres = jnp.stack([s.centre for s in scene.sprockets])
 
     def one(shape, centre, theta, omega):

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -32,7 +33,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._numerics import cross2
+from ._freeform import Flank, FreeformProfile, FreeShape, as_freeform, half_gap, stack_shapes
+from ._numerics import cross2, safe_norm
 from ._profile import MAX_TEETH, ProfileGeometry, ToothProfile, _geometry
 
 __all__ = ["gap_contact", "signed_distance", "nearest_gap", "GapShape"]
@@ -73,18 +75,37 @@ class GapShape(eqx.Module):
         )  # fmt: skip
 
 
+def gap_shapes(profiles: Sequence[ToothProfile | FreeformProfile]) -> GapShape | FreeShape:
+    """The sprockets' shapes stacked for one vmapped contact: ISO-type profiles as a
+    :class:`GapShape` (the folded, symmetric evaluation); if any profile is free-form,
+    every one as a :class:`FreeShape` with the largest K arcs per flank (an ISO flank
+    split into arcs of its own curvature is the same outline)."""
+    if all(isinstance(p, ToothProfile) for p in profiles):
+        return GapShape.stack(profiles)
+    arcs = max(p.arcs for p in profiles if isinstance(p, FreeformProfile))
+    return stack_shapes([as_freeform(p, arcs) for p in profiles])
+
+
 def _profile(profile, caller: str):
-    """``profile`` if it is one tooth profile (scalar shape leaves)."""
+    """``profile`` if it is one tooth profile (an ISO-type profile with scalar shape
+    leaves, or a free-form one, its per-gap leaves one value per gap); a free-form
+    profile as its :class:`FreeShape`."""
+    if isinstance(profile, FreeformProfile):
+        return profile.shape()
+    if isinstance(profile, FreeShape):
+        return profile
     if not isinstance(profile, (ToothProfile, GapShape)):
         raise TypeError(
-            f"{caller}: profile must be a jc.ToothProfile, got {type(profile).__name__} {profile!r}"
+            f"{caller}: profile must be a jc.ToothProfile or jc.FreeformProfile, got "
+            f"{type(profile).__name__} {profile!r}"
         )
     names = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter", "pitch")
     shaped = {n: np.shape(getattr(profile, n)) for n in names if np.shape(getattr(profile, n))}
     if shaped:
         raise ValueError(
             f"{caller}: the profile's shape parameters must be scalars, got shapes {shaped}; "
-            "for a batch of profiles use jax.vmap over the profile"
+            "for a batch of profiles use jax.vmap over the profile (per-gap values: "
+            "jc.FreeformProfile)"
         )
     return profile
 
@@ -107,11 +128,15 @@ def _point(point, caller: str) -> Array:
     return point if jnp.issubdtype(point.dtype, jnp.floating) else point.astype(float)
 
 
-def nearest_gap(profile: ToothProfile | GapShape, point: Float[Array, 2]) -> Array:
+def nearest_gap(profile: ToothProfile | FreeformProfile, point: Float[Array, 2]) -> Array:
     """Index k (integer array, in [0, z)) of the tooth gap nearest to ``point`` (sprocket
-    frame); 0 for a non-finite point (an index has no NaN: the distance it feeds is NaN)."""
+    frame); 0 for a non-finite point (an index has no NaN: the distance it feeds is NaN).
+    For a free-form profile: the gap whose half pitch holds the point's polar angle."""
     point = _point(point, "nearest_gap")
-    z = _profile(profile, "nearest_gap").teeth
+    profile = _profile(profile, "nearest_gap")
+    if isinstance(profile, FreeShape):
+        return _free_signed_distance(profile, point)[2]
+    z = profile.teeth
     theta = jnp.arctan2(point[1], point[0])
     k = jnp.round(jax.lax.stop_gradient(theta) * z / (2 * jnp.pi))
     return jnp.mod(k, z).astype(jnp.int32)
@@ -139,12 +164,15 @@ def _gap_rotation(k, z, dtype):
 
 
 def signed_distance(
-    profile: ToothProfile | GapShape, point: Float[Array, 2]
+    profile: ToothProfile | FreeformProfile, point: Float[Array, 2]
 ) -> tuple[Float[Array, ""], Float[Array, 2]]:
     """Signed distance [m] from ``point`` (sprocket frame) to the tooth material, positive in
     the gap, and its gradient (unit normal, sprocket frame); NaN (both) for a NaN point."""
     point = _point(point, "signed_distance")
-    z = _profile(profile, "signed_distance").teeth
+    profile = _profile(profile, "signed_distance")
+    if isinstance(profile, FreeShape):
+        return _free_signed_distance(profile, point)[:2]
+    z = profile.teeth
     k = nearest_gap(profile, point)
     rot = _gap_rotation(k, z, point.dtype)
     local = rot.T @ point  # gap-fixed frame
@@ -222,7 +250,7 @@ def _gap_sign(q, c, jn, f, kc, ra, ri, re):
 
 
 def gap_contact(
-    profile: ToothProfile | GapShape, point: Float[Array, 2] | ArrayLike
+    profile: ToothProfile | FreeformProfile, point: Float[Array, 2] | ArrayLike
 ) -> tuple[Float[Array, ""], Float[Array, 2]]:
     """Contact of a roller centred at ``point`` with its nearest tooth gap.
 
@@ -242,3 +270,175 @@ def gap_contact(
     profile, point = _profile(profile, "gap_contact"), _point(point, "gap_contact")
     sd, normal = signed_distance(profile, point)
     return profile.roller_radius - sd, normal
+
+
+# --------------------------------------------------------------------------- free-form
+# relative slack of the arcs' end-ray tests: neighbouring arcs' interiors overlap by
+# ~1e-12 rad, so a point on the normal line through a junction (tangent arcs: centres,
+# junction and point collinear) is inside one of them whatever the rounding; the
+# distance there to the circle beyond its arc differs from the true one by ~r·1e-24
+_RAY_SLACK = 1e-12
+
+
+class GapTable(NamedTuple):
+    """Every gap's outline features in the sprocket frame, leading axis z (gap), then F =
+    2K + 4 features in the order [cw arcs (K), cw tip corner, seat, ccw arcs (K), ccw tip
+    corner, tip of the tooth after the gap]. An arc is bounded by its two end rays from
+    its centre (counter-clockwise from ``start`` to ``end``); a corner is a point
+    (radius 0, no rays). ``kind`` is +1 where the material lies inside the circle (flank
+    arcs, tip; a corner), −1 for the seat: the signed distance to a feature is
+    kind·(|x − centre| − radius)."""
+
+    centre: Float[Array, "z F 2"]
+    radius: Float[Array, "z F"]
+    start: Float[Array, "z F 2"]
+    end: Float[Array, "z F 2"]
+
+
+def _kinds(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(kind, is_corner) of the F = 2K + 4 features of a table row (static)."""
+    kind = np.ones(2 * k + 4)
+    kind[k + 1] = -1.0  # the seat
+    corner = np.zeros(2 * k + 4, bool)
+    corner[[k, 2 * k + 2]] = True
+    return kind, corner
+
+
+def gap_table(shape: FreeShape) -> tuple[GapTable, bool]:
+    """The features of every gap, computed once per evaluation of the contact (every
+    point then reads its two gaps' rows), and whether the shape has per-gap leaves.
+    Per-gap: one row per gap, sprocket frame. Uniform: gaps 0 and 1 in gap 0's frame
+    (every pair of neighbours is that pair rotated), and gap 2 for gap 1's tip."""
+    z = shape.teeth
+    n = jnp.asarray(shape.seating_radius).shape[0] if jnp.ndim(shape.seating_radius) else None
+    for f in (shape.cw, shape.ccw):
+        n = n or (f.seat_angle.shape[0] if f.seat_angle.ndim else None)
+        n = n or (f.curvature.shape[0] if f.curvature.ndim == 2 else None)
+        n = n or (f.breaks.shape[0] if f.breaks.ndim == 2 else None)
+    n = n or (jnp.asarray(shape.seat_offset).shape[0] if jnp.ndim(shape.seat_offset) else None)
+    n = n or (jnp.asarray(shape.phase).shape[0] if jnp.ndim(shape.phase) else None)
+    per_gap = n is not None  # any leaf with one value per gap: geometry for each gap
+    radius = shape.pitch / (2 * jnp.sin(jnp.pi / z))
+    ra = shape.tip_diameter / 2
+
+    def side(f: Flank):
+        args = (radius + shape.seat_offset, shape.seating_radius, f.seat_angle)
+        args = (*args, f.curvature, f.breaks)
+        if not per_gap:
+            return jax.tree_util.tree_map(lambda x: x[None], half_gap(*args, ra))
+        axes = (0 if jnp.ndim(a) else None for a in args[:3])
+        axes = (*axes, 0 if f.curvature.ndim == 2 else None, 0 if f.breaks.ndim == 2 else None)
+        return jax.vmap(half_gap, (*axes, None))(*args, ra)
+
+    ccw, cw = side(shape.ccw), side(shape.cw)
+    m = jnp.array([1.0, -1.0], ra.dtype)
+    kk = ccw.radii.shape[-1]
+    n_rows = ccw.radii.shape[0]
+    # local frame (gap axis +x), rows: 1 (uniform) or one per gap
+    cw_c, cw_v = cw.centres * m, cw.vertices * m
+    zero = jnp.zeros((n_rows, 1, 2), ra.dtype)
+    seat_c = ccw.seat_centre[:, None]
+    centre = jnp.concatenate(
+        [cw_c, cw_v[:, -1:], seat_c, ccw.centres, ccw.vertices[:, -1:], zero], 1
+    )
+    radius_f = jnp.concatenate(
+        [cw.radii, jnp.zeros((n_rows, 1)), ccw.seating_radius[:, None], ccw.radii,
+         jnp.zeros((n_rows, 1)), jnp.broadcast_to(ra, (n_rows, 1))], 1
+    )  # fmt: skip
+    start = jnp.concatenate(
+        [cw_v[:, 1:] - cw_c, zero, ccw.vertices[:, :1] - seat_c, ccw.vertices[:, :-1] - ccw.centres,
+         zero, zero], 1
+    )  # fmt: skip
+    end = jnp.concatenate(
+        [cw_v[:, :-1] - cw_c, zero, cw_v[:, :1] - seat_c, ccw.vertices[:, 1:] - ccw.centres,
+         zero, zero], 1
+    )  # fmt: skip
+    if per_gap:  # to the sprocket frame: gap g's axis at 2πg/z + phase[g]
+        g = jnp.arange(n_rows)
+        theta = 2 * jnp.pi * g / z + shape.phase
+    else:  # rows: gaps 0, 1 (and 2, for gap 1's tip), in gap 0's frame
+        g = jnp.arange(3)
+        theta = 2 * jnp.pi * g / z
+    c, s = jnp.cos(theta), jnp.sin(theta)
+    rot = jnp.stack([jnp.stack([c, -s], -1), jnp.stack([s, c], -1)], -2)
+    n_out = g.shape[0]
+
+    def rotate(x):
+        return jnp.einsum("gij,gfj->gfi", rot, jnp.broadcast_to(x, (n_out,) + x.shape[1:]))
+
+    centre, start, end = rotate(centre), rotate(start), rotate(end)
+    radius_f = jnp.broadcast_to(radius_f, (n_out, radius_f.shape[1]))
+    # the tooth after gap g: tip circle from gap g's ccw corner to gap g+1's cw corner
+    nxt = jnp.mod(g + 1, z.astype(g.dtype)) if per_gap else jnp.array([1, 2, 2])
+    start = start.at[:, -1].set(centre[:, 2 * kk + 2])
+    end = end.at[:, -1].set(centre[nxt, kk])
+    return GapTable(centre, radius_f, start, end), per_gap
+
+
+def _free_signed_distance(shape: FreeShape, point: Array) -> tuple[Array, Array, Array]:
+    """Signed distance, normal (sprocket frame) and the gap index owning ``point``, for a
+    free-form shape.
+
+    The point lies between the nominal axes of gaps k0 and k1 = k0 + 1: on the tooth
+    between them or in one of their gaps. Read: both gaps' seats, the tooth's two flanks
+    and tip, and both sides of the gap on the point's side of the tooth's nominal centre
+    line (the sides of an asymmetric gap differ). The nearest point of a chain of tangent
+    arcs is the projection onto one arc's interior or a corner (at a junction the point
+    would project onto it from both arcs), so the features are the arcs and the tip
+    corners: exact Euclidean distance, signed by the nearest feature's material side."""
+    table, per_gap = gap_table(shape)
+    k = (table.radius.shape[1] - 4) // 2
+    kind, corner = _kinds(k)
+    z = shape.teeth
+    theta = jax.lax.stop_gradient(jnp.arctan2(point[1], point[0]))
+    turns = theta * z / (2 * jnp.pi)
+    kf = jnp.floor(turns)
+    before = (turns - kf) < 0.5  # on gap k0's side of the tooth's nominal centre line
+    kf = jnp.where(jnp.isfinite(kf), kf, 0.0)
+    k0 = jnp.mod(kf, z).astype(jnp.int32)
+    k1 = jnp.mod(k0 + 1, z.astype(jnp.int32))
+    if per_gap:
+        r0, r1, x = k0, k1, point
+    else:  # the point in gap k0's frame (its axis at 2πk0/z + phase)
+        c, s = jnp.cos(shape.phase), jnp.sin(shape.phase)
+        rot = _gap_rotation(k0, z, point.dtype) @ jnp.array([[c, -s], [s, c]])
+        r0, r1, x = 0, 1, rot.T @ point
+    full = jnp.where(before, r0, r1)
+    part = jnp.where(before, r1, r0)
+    rows = jax.tree_util.tree_map(lambda a: a[jnp.stack([full, part])], table)
+
+    def features(x):
+        a, b = x[0], x[1]
+        return jnp.concatenate([a, jnp.where(before, b[: k + 4], b[k:])])
+
+    cen, rad, st, en = (features(x) for x in rows)
+    kind_f = jnp.asarray(np.concatenate([kind, kind[: k + 4]]))
+    kind_f = jnp.where(before, kind_f, jnp.asarray(np.concatenate([kind, kind[k:]])))
+    corner_f = np.concatenate([corner, corner[: k + 4]])
+    corner_f = jnp.where(before, corner_f, np.concatenate([corner, corner[k:]]))
+    rel = x - cen
+    sq = jnp.sum(rel * rel, -1)
+    pos = sq > 0
+    inv = jnp.where(pos, jax.lax.rsqrt(jnp.where(pos, sq, 1.0)), 0.0)
+    dist = sq * inv
+    # at a centre or on a corner: the direction from the centre to the arc's start
+    fallback = (
+        jnp.where(corner_f[:, None], cen, st)
+        / jnp.where(corner_f, safe_norm(cen), jnp.where(rad > 0, rad, 1.0))[:, None]
+    )
+    unit = jnp.where(pos[:, None], rel * inv[:, None], fallback)
+    rel_s, st_s, en_s, d_s, r_s = jax.lax.stop_gradient((rel, st, en, dist, rad))
+    slack = -_RAY_SLACK * r_s * d_s
+    interior = corner_f | ((cross2(st_s, rel_s) >= slack) & (cross2(rel_s, en_s) >= slack))
+    signed = kind_f * (dist - rad)
+    masked = jnp.where(interior, jnp.abs(jax.lax.stop_gradient(signed)), jnp.inf)
+    pick = jnp.arange(signed.shape[0]) == jnp.argmin(masked)
+    sd = jnp.sum(jnp.where(pick, signed, 0.0))
+    normal = jnp.sum(jnp.where(pick[:, None], kind_f[:, None] * unit, 0.0), 0)
+    if not per_gap:
+        normal = rot @ normal
+    sd = jnp.where(jnp.any(jnp.isnan(point)), jnp.nan, sd)
+    # the owning gap: which side of the tooth's split (midway between its tip corners)
+    tip = jax.lax.stop_gradient(table.start[r0, -1] + table.end[r0, -1])
+    gap = jnp.where(cross2(tip, jax.lax.stop_gradient(x)) > 0, k1, k0)
+    return sd, jnp.where(jnp.isnan(sd), jnp.nan, normal), gap

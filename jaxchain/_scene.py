@@ -16,6 +16,7 @@ from jaxtyping import Array, Float, Int
 
 from ._contact.base import AbstractContactLaw
 from ._contact.friction import CoulombFriction
+from ._freeform import FreeformProfile
 from ._numerics import is_concrete
 from ._profile import ToothProfile
 
@@ -53,7 +54,7 @@ class Sprocket(eqx.Module):
             (static).
     """
 
-    profile: ToothProfile
+    profile: ToothProfile | FreeformProfile
     centre: Float[Array, 2]
     speed: Float[Array, ""]
     inertia: Float[Array, ""]
@@ -93,9 +94,10 @@ class Sprocket(eqx.Module):
         return self.load_torque * jnp.where(ramp > 0, x * x * (3 - 2 * x), 1.0)
 
     def __check_init__(self):
-        if not isinstance(self.profile, ToothProfile):
+        if not isinstance(self.profile, (ToothProfile, FreeformProfile)):
             raise TypeError(
-                f"Sprocket: profile must be a jc.ToothProfile, got {type(self.profile).__name__}"
+                "Sprocket: profile must be a jc.ToothProfile or jc.FreeformProfile, got "
+                f"{type(self.profile).__name__}"
             )
         if np.shape(self.centre)[-1:] != (2,):
             raise ValueError(f"Sprocket: centre must be (x, y), got shape {np.shape(self.centre)}")

@@ -71,7 +71,11 @@ BAD = [
     (lambda: engagement(slack_tension=-1.0), ValueError, "slack_tension must be >= 0 N"),
     (lambda: engagement(restitution=0.0), ValueError, r"restitution must be in \(0, 1\]"),
     (lambda: engagement(restitution=np.array([0.7, 0.8])), TypeError, "restitution must be"),
-    (lambda: engagement(profile="min"), TypeError, "profile must be a jc.ToothProfile or None"),
+    (
+        lambda: engagement(profile="min"),
+        TypeError,
+        "profile must be a jc.ToothProfile, jc.FreeformProfile or None",
+    ),
     (
         lambda: engagement(profile=jc.ToothProfile.iso606("10B", 18)),
         ValueError,

@@ -9,6 +9,7 @@ from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
+from .._freeform import FreeformProfile
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import JOINT_FRICTION, assemble, chain_bodies, roller_law
@@ -120,7 +121,10 @@ def drive(
         profiles = (ToothProfile.iso606(chain, z1, form), ToothProfile.iso606(chain, z2, form))
     profiles = checks.pair("profiles", profiles, 2, "tooth profiles (driver, driven)")
     for k, p in enumerate(profiles):
-        checks.instance(f"profiles[{k}]", p, ToothProfile, "a jc.ToothProfile")
+        checks.instance(
+            f"profiles[{k}]", p, (ToothProfile, FreeformProfile),
+            "a jc.ToothProfile or jc.FreeformProfile",
+        )  # fmt: skip
         check_profile(chain, p, f"profiles[{k}]")
     if (profiles[0].teeth, profiles[1].teeth) != (z1, z2):
         raise ValueError(

@@ -12,6 +12,7 @@ from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.friction import CoulombFriction
+from .._freeform import FreeformProfile
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import JOINT_FRICTION, assemble, chain_bodies, link_stiffness, roller_law
@@ -92,7 +93,10 @@ def engagement(
         checks.real("span_stiffness", span_stiffness, lo=0.0, lo_open=True, unit="N/m")
     if profile is None:
         profile = ToothProfile.iso606(chain, teeth, form)
-    checks.instance("profile", profile, ToothProfile, "a jc.ToothProfile or None")
+    checks.instance(
+        "profile", profile, (ToothProfile, FreeformProfile),
+        "a jc.ToothProfile, jc.FreeformProfile or None",
+    )  # fmt: skip
     check_profile(chain, profile)
     if profile.teeth != teeth:
         raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
