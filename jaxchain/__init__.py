@@ -27,7 +27,7 @@ from ._gap import (
 )
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
 from ._options import SolveOptions as SolveOptions
-from ._plot import plot_profiles as plot_profiles
+from ._plot import plot_profiles as plot_profiles, plot_sprocket as plot_sprocket
 from ._plot_drive import (
     animate as animate,
     plot_forces as plot_forces,

@@ -34,6 +34,7 @@ chain's) is the uniform ``seat_offset = (p' − p) / (2 sin(π/z))``.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import NamedTuple
 
 import equinox as eqx
@@ -216,6 +217,13 @@ class FreeformProfile(eqx.Module):
         side. For plotting (NumPy, not traced)."""
         g = self.gaps()
         return _gap_outline(g, gap, n)
+
+    def to_dxf(self, path) -> Path:
+        """Write the whole sprocket's closed outline to ``path`` as exact DXF ARC entities
+        in millimetres (axis at the origin, gap 0 on +x), for CAD/CNC. Returns the path."""
+        from ._cad import write_dxf
+
+        return write_dxf(self, path)
 
     def sprocket_outline(self, n: int = 30) -> np.ndarray:
         """Closed outline (N, 2) [m] of the whole sprocket (all z gaps)."""

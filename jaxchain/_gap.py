@@ -324,16 +324,20 @@ def gap_table(shape: FreeShape) -> tuple[GapTable, bool]:
     def side(f: Flank):
         args = (radius + shape.seat_offset, shape.seating_radius, f.seat_angle)
         args = (*args, f.curvature, f.breaks)
-        if not per_gap:
-            return jax.tree_util.tree_map(lambda x: x[None], half_gap(*args, ra))
-        axes = (0 if jnp.ndim(a) else None for a in args[:3])
+        axes = tuple(0 if jnp.ndim(a) else None for a in args[:3])
         axes = (*axes, 0 if f.curvature.ndim == 2 else None, 0 if f.breaks.ndim == 2 else None)
+        if all(a is None for a in axes):  # this side's geometry is the same in every gap
+            return jax.tree_util.tree_map(lambda x: x[None], half_gap(*args, ra))
         return jax.vmap(half_gap, (*axes, None))(*args, ra)
 
     ccw, cw = side(shape.ccw), side(shape.cw)
     m = jnp.array([1.0, -1.0], ra.dtype)
     kk = ccw.radii.shape[-1]
-    n_rows = ccw.radii.shape[0]
+    n_rows = max(ccw.radii.shape[0], cw.radii.shape[0])
+    ccw, cw = (
+        jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n_rows,) + x.shape[1:]), h)
+        for h in (ccw, cw)
+    )
     # local frame (gap axis +x), rows: 1 (uniform) or one per gap
     cw_c, cw_v = cw.centres * m, cw.vertices * m
     zero = jnp.zeros((n_rows, 1, 2), ra.dtype)
@@ -354,7 +358,7 @@ def gap_table(shape: FreeShape) -> tuple[GapTable, bool]:
          zero, zero], 1
     )  # fmt: skip
     if per_gap:  # to the sprocket frame: gap g's axis at 2πg/z + phase[g]
-        g = jnp.arange(n_rows)
+        g = jnp.arange(n)
         theta = 2 * jnp.pi * g / z + shape.phase
     else:  # rows: gaps 0, 1 (and 2, for gap 1's tip), in gap 0's frame
         g = jnp.arange(3)
@@ -399,7 +403,8 @@ def _free_signed_distance(shape: FreeShape, point: Array) -> tuple[Array, Array,
     k1 = jnp.mod(k0 + 1, z.astype(jnp.int32))
     if per_gap:
         r0, r1, x = k0, k1, point
-    else:  # the point in gap k0's frame (its axis at 2πk0/z + phase)
+    else:  # the point in gap k0's frame (its axis at 2πk0/z + phase), rotated as the
+        # ISO evaluation rotates it (a zero phase is an exact identity: same rounding)
         c, s = jnp.cos(shape.phase), jnp.sin(shape.phase)
         rot = _gap_rotation(k0, z, point.dtype) @ jnp.array([[c, -s], [s, c]])
         r0, r1, x = 0, 1, rot.T @ point

@@ -19,6 +19,7 @@ Outline of one gap, upper half (the lower half is its mirror image in the x axis
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Literal, NamedTuple
 
 import equinox as eqx
@@ -231,6 +232,13 @@ class ToothProfile(eqx.Module):
         ang = 2 * math.pi * gap / self.teeth
         rot = np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
         return pts @ rot.T
+
+    def to_dxf(self, path) -> Path:
+        """Write the whole sprocket's closed outline to ``path`` as exact DXF ARC entities
+        in millimetres (axis at the origin, gap 0 on +x), for CAD/CNC. Returns the path."""
+        from ._cad import write_dxf
+
+        return write_dxf(self, path)
 
     def sprocket_outline(self, n: int = 30) -> np.ndarray:
         """Closed outline (N, 2) [m] of the whole sprocket (all z gaps)."""

@@ -57,3 +57,17 @@ def test_tension_climb_benchmark_quick(tmp_path):
     # the driven sprocket turns at z1/z2 of the driver
     assert all(abs(r["speed_ratio"] / s["speed_ratio"] - 1) < 0.02 for r in res["mu_sweep"])
     assert (tmp_path / "tension_climb.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_geometry_benchmark_quick(tmp_path):
+    from benchmarks.geometry import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    rows = {(r["scene"], r["profile"]): r for r in res["rows"]}
+    assert len(rows) == 6
+    for (_, key), r in rows.items():
+        assert r["us_per_vf_call"] > 0 and r["compile_s"] > 0
+        if key == "iso":
+            assert r["vf_ratio"] == 1.0
+    assert (tmp_path / "geometry.png").stat().st_size > 10_000

@@ -513,3 +513,91 @@ def test_a_per_gap_pattern_simulates():
     sol = jc.simulate(scene, 60.0 / (Z * 600), n_save=3)
     assert sol.result == jc.Result.successful
     assert 300 < float(sol.peak_contact_force) < 3000
+
+
+# --------------------------------------------------------------------------- CAD
+@pytest.mark.parametrize("which", ["iso", "pattern"])
+def test_dxf_round_trip(tmp_path, which):
+    """Read back with ezdxf: one ARC per seat, flank arc and tip (z·(2K + 2)), in mm;
+    radii are the profile's (ri per gap, 1/κ, da/2); every arc's end points lie on the
+    outline and each meets exactly one other arc's end point (a closed chain), to 1e-9 m."""
+    import ezdxf
+
+    p = ISO if which == "iso" else pattern(np.random.default_rng(8))
+    k = 1 if which == "iso" else p.arcs
+    doc = ezdxf.readfile(p.to_dxf(tmp_path / "sprocket.dxf"))
+    assert doc.units == ezdxf.units.MM
+    arcs = list(doc.modelspace().query("ARC"))
+    assert len(arcs) == Z * (2 * k + 2)
+    radii = np.array([a.dxf.radius for a in arcs]) * 1e-3
+    ri = np.broadcast_to(np.asarray(p.seating_radius), (Z,))
+    if which == "iso":
+        kap = np.full((Z, 2), 1 / float(p.flank_radius))
+    else:
+        kap = np.concatenate([np.asarray(p.cw.curvature), np.asarray(p.ccw.curvature)], 1)
+    want = np.sort(np.concatenate([ri, 1 / kap.ravel(), np.full(Z, float(p.tip_diameter) / 2)]))
+    np.testing.assert_allclose(np.sort(radii), want, rtol=0, atol=1e-12)
+    ends = (
+        np.array(
+            [[[a.start_point.x, a.start_point.y], [a.end_point.x, a.end_point.y]] for a in arcs]
+        ).reshape(-1, 2)
+        * 1e-3
+    )
+    np.testing.assert_allclose(sd_many(p, jnp.asarray(ends))[0], 0.0, atol=1e-9)
+    dist = np.linalg.norm(ends[:, None] - ends[None], axis=-1)
+    np.fill_diagonal(dist, np.inf)
+    same_arc = np.arange(len(ends))[:, None] // 2 == np.arange(len(ends))[None] // 2
+    dist[same_arc] = np.inf
+    assert np.all(np.sum(dist < 1e-9, 1) == 1)
+
+
+# --------------------------------------------------------------------------- design space
+def test_design_space_over_chosen_leaves():
+    """A box over per-gap seating radius and phase, a uniform flank's curvatures and one
+    seat angle: u = 0 is the middle, coordinates() inverts profile(), the gradient of a
+    contact in u reaches only the entries of the gaps it reads, and a box reaching
+    outside valid profiles is refused naming the corner."""
+    from jaxchain.design import DesignSpace
+
+    ff = jc.FreeformProfile.from_iso(ISO, 3)
+    ri, k = float(ISO.seating_radius), 1 / RE
+    space = DesignSpace.select(
+        ff,
+        {
+            "seating_radius": (np.full(Z, ri), np.full(Z, ri + 60e-6)),
+            "phase": (np.full(Z, -1e-3), np.full(Z, 1e-3)),
+            "ccw.curvature": (np.full(3, 0.85 * k), np.full(3, 1.15 * k)),
+            "cw.seat_angle": (HALF - 0.05, HALF + 0.03),
+        },
+    )
+    assert space.size == 2 * Z + 3 + 1
+    p = space.profile(jnp.zeros(space.size))
+    np.testing.assert_allclose(p.seating_radius, np.full(Z, ri + 30e-6), rtol=1e-12)
+    np.testing.assert_allclose(p.ccw.curvature, np.full(3, k), rtol=1e-12)
+    np.testing.assert_allclose(p.cw.seat_angle, HALF - 0.01, rtol=1e-12)
+    u = jnp.asarray(np.random.default_rng(0).normal(size=space.size))
+    np.testing.assert_allclose(space.coordinates(space.profile(u)), u, atol=1e-9)
+    x = jnp.asarray([float(ISO.pitch_radius) - 1e-4, 3e-4])  # in gap 0, ccw side
+    g = np.asarray(jax.grad(lambda u: jc.gap_contact(space.profile(u), x)[0])(u))
+    reads = {0, Z, 2 * Z, 2 * Z + 1, 2 * Z + 2, 2 * Z + 3, 1, Z + 1}  # gaps 0 and 1
+    assert np.all(g[[i for i in range(space.size) if i not in reads]] == 0)
+    assert np.any(g != 0)
+    with pytest.raises(ValueError, match=r"corner \(cw.seat_angle lower\) cw.seat_angle"):
+        DesignSpace.select(ff, {"cw.seat_angle": (0.2, 1.4)})
+    with pytest.raises(ValueError, match="'nope' is not a leaf of this FreeformProfile"):
+        DesignSpace.select(ff, {"nope": (0.0, 1.0)})
+    with pytest.raises(ValueError, match=r"u must have shape \(40,\)"):
+        space.profile(jnp.zeros(4))
+
+
+def test_plots_draw_free_form_and_patterns(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    p = pattern(np.random.default_rng(3))
+    ax = jc.plot_profiles(CH, Z, extra={"pattern": p})
+    assert len(ax.lines) >= 2 * 3 + 1
+    ax2 = jc.plot_sprocket(p)
+    assert len(ax2.lines) == 2 + Z  # reference, exaggerated profile, a roller per gap
+    ax2.figure.savefig(tmp_path / "sprocket.png")
+    assert (tmp_path / "sprocket.png").stat().st_size > 10_000

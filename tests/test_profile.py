@@ -186,7 +186,7 @@ def test_plot_profiles(tmp_path):
 
     ax = jc.plot_profiles(CH08B, 18)
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert labels == ["ISO 606 min form", "ISO 606 max form", "pitch circle"]
+    assert labels == ["ISO 606 min…max", "ISO 606 min form", "ISO 606 max form", "pitch circle"]
     out = tmp_path / "forms.png"
     ax.figure.savefig(out)
     assert out.stat().st_size > 10_000
