@@ -134,6 +134,7 @@ def scenes(name: str):
 def main(argv=None) -> dict:
     args = parse(parser(__doc__), argv)
     start = time.perf_counter()
+    machine = machine_info()
     n_vf = 300 if args.quick else 3000
     rows = []
     for scene_name in ("engagement", "drive100"):
@@ -166,7 +167,7 @@ def main(argv=None) -> dict:
     results = {
         "command": "python -m benchmarks.geometry" + (" --quick" if args.quick else ""),
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "machine": machine_info(),
+        "machine": machine,
         "arcs_per_flank": K,
         "rows": rows,
         "goal": "vector field and compile time at most 1.5x the uniform ISO profile",

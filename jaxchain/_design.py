@@ -121,7 +121,7 @@ class DesignSpace(eqx.Module):
         template value and both bounds (bounds of shape (z,) on a uniform leaf make it a
         per-gap pattern). Example: ``{"seating_radius": (ri_lo·ones(z), ri_hi·ones(z)),
         "ccw.curvature": (k_lo, k_hi)}``. Checked: the box's corners (all of them up to
-        10 coordinates; else its middle, its two extreme corners and 64 seeded random
+        6 coordinates; else its middle, its two extreme corners and 64 seeded random
         corners) are valid profiles."""
         if not isinstance(bounds, dict) or not bounds:
             raise TypeError("bounds must be a non-empty dict {leaf path: (lower, upper)}")
@@ -237,10 +237,10 @@ def _coordinate(u, what: str = "u", n: int = 4, names=PARAMETERS) -> Array:
 
 def _check_box_sampled(space: DesignSpace) -> None:
     """The box's corners must be valid profiles (constructing one validates it): all
-    corners up to 10 coordinates, else the middle, the two extreme corners and 64
-    seeded random corners."""
+    corners up to 6 coordinates, else the middle, the two extreme corners and 64 seeded
+    random corners."""
     n = space.size
-    if n <= 10:
+    if n <= 6:
         picks = np.array(list(itertools.product((0, 1), repeat=n)), dtype=float)
     else:
         rng = np.random.default_rng(0)

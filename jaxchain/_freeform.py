@@ -533,13 +533,20 @@ def _side_params(shape, side: str, z: int):
     )
 
 
+@jax.jit
+def _every_half_gap(p: FreeformProfile) -> tuple[HalfGap, HalfGap]:
+    """Both sides of every gap (jitted: construction checks call it for every profile)."""
+    ra = p.tip_diameter / 2
+    return tuple(
+        jax.vmap(half_gap, (0, 0, 0, 0, 0, None))(*_side_params(p, side, p.teeth), ra)
+        for side in ("ccw", "cw")
+    )
+
+
 def _gap_geometry_np(p: FreeformProfile) -> GapGeometry:
     z = p.teeth
     ra = p.tip_diameter / 2
-    sides = []
-    for side in ("ccw", "cw"):
-        h = jax.vmap(half_gap, (0, 0, 0, 0, 0, None))(*_side_params(p, side, z), ra)
-        sides.append(h)
+    sides = _every_half_gap(p)
     stack = lambda name: np.stack([np.asarray(getattr(h, name)) for h in sides], 1)  # noqa: E731
     verts = stack("vertices")
     centres = stack("centres")

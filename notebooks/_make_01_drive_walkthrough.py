@@ -35,7 +35,9 @@ import jax
 
 """
         + X64
-        + """import numpy as np
+        + """import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
 import matplotlib.pyplot as plt
 import jaxchain as jc
 """
@@ -74,7 +76,7 @@ drowned in a start-up transient."""
         """rpm, z = 1000, 18
 tooth_period = 60 / rpm / z
 scene = jc.scenes.engagement(chain, z, speed_rpm=rpm, tension=1000.0, n_entry=8)
-sol = jc.simulate(scene, (1.5 if FAST else 5) * tooth_period, n_save=1501)
+sol = jc.simulate(scene, (1.5 if FAST else 5) * tooth_period)  # 501 saves
 print(
     f"{int(sol.stats['num_steps'])} steps; peak roller–sprocket force {float(sol.peak_contact_force):.0f} N"
 )
@@ -116,12 +118,14 @@ jc.plot_tensions(dsol, ax=ax[1]);"""
     new_code_cell("jc.plot_snapshot(drive, dsol, index=-1);"),
     new_markdown_cell(
         """## 4. Failures are values
-A solve that cannot finish reports what happened and what to change, instead of returning
-NaNs. `throw=True` (the default) raises with the same message."""
+A solve that cannot finish, or whose result is not physical, reports what happened and
+what to change, instead of returning NaNs. `throw=True` (the default) raises with the same
+message. Here the same strand as a chain of 500 N tensile strength under its 1000 N span:"""
     ),
     new_code_cell(
-        """bad = jc.simulate(scene, tooth_period, max_steps=50, throw=False)
-print(bad.result == jc.Result.max_steps_reached)
+        """weak = eqx.tree_at(lambda s: s.tensile_strength, scene, jnp.asarray(500.0))
+bad = jc.simulate(weak, tooth_period, throw=False)
+print(bad.result == jc.Result.chain_overloaded)
 print(bad.message)"""
     ),
     new_markdown_cell(

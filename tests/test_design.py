@@ -2,8 +2,10 @@
 solve (against central finite differences of fixed-step solves), implicit statics."""
 
 import itertools
+import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -103,6 +105,34 @@ def test_window_weight_integral_and_smoothness():
     assert np.max(np.abs(np.diff(dw))) < 1e-2  # C¹: no jump in the slope
 
 
+def test_soft_peak_of_an_impact_pulse_matches_laplace():
+    """The soft peak of one Gaussian force pulse (height A, width σ) over a window W,
+    integrated from the observer's integrand: Laplace's method gives
+    P = A + τ·log(σ·√(2πτ/A) / W) (to O(τ²/A)); its bias falls with τ as −τ·log(W/δ),
+    δ = σ·√(2πτ/A) the time spent near the peak, and P never exceeds A + τ·log(rollers)."""
+    from types import SimpleNamespace
+
+    from jaxchain.observers import SoftPeak
+
+    a, sigma, t0, w = 1000.0, 20e-6, 0.6e-3, 1e-3
+    t = np.linspace(0.0, w, 400_001)
+    force = a * np.exp(-0.5 * ((t - t0) / sigma) ** 2)
+    quiet = np.full_like(t, 0.3 * a)  # a second roller, well below the peak
+    for tau in (2.0, 10.0, 50.0):
+        obs = SoftPeak(t_start=0.0, rise=0.0, temperature=tau, reference=a)
+        rate = jax.jit(
+            jax.vmap(
+                lambda ti, f: obs.integrand(ti, None, None, SimpleNamespace(roller_normal=f))
+            )
+        )(jnp.asarray(t), jnp.stack([force, quiet], -1)[:, None, :])
+        integral = np.trapezoid(np.asarray(rate), t)
+        p = float(obs.value(jnp.asarray(integral), 0.0, w))
+        laplace = a + tau * math.log(sigma * math.sqrt(2 * math.pi * tau / a) / w)
+        assert abs(p - laplace) < tau * (0.002 + tau / a), (tau, p, laplace)  # O(τ²/A)
+        assert p <= a + tau * math.log(2)
+
+
+@pytest.mark.slow
 def test_soft_peak_approaches_sharp_peak_as_temperature_falls():
     """Bias of the soft maximum against the sharp maximum of the same fixed-step solve
     (the per-step force maximum in the window): it falls with the temperature τ and
