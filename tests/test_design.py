@@ -122,7 +122,7 @@ def test_soft_peak_of_an_impact_pulse_matches_laplace():
         obs = SoftPeak(t_start=0.0, rise=0.0, temperature=tau, reference=a)
         rate = jax.jit(
             jax.vmap(
-                lambda ti, f: obs.integrand(ti, None, None, SimpleNamespace(roller_normal=f))
+                lambda ti, f, o=obs: o.integrand(ti, None, None, SimpleNamespace(roller_normal=f))
             )
         )(jnp.asarray(t), jnp.stack([force, quiet], -1)[:, None, :])
         integral = np.trapezoid(np.asarray(rate), t)
