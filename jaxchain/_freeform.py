@@ -34,7 +34,6 @@ chain's) is the uniform ``seat_offset = (p' − p) / (2 sin(π/z))``.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import NamedTuple
 
 import equinox as eqx
@@ -44,7 +43,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._numerics import is_concrete, safe_norm, safe_sqrt
-from ._profile import ToothProfile, _check_teeth
+from ._profile import SprocketDerived, ToothProfile, _check_teeth
 
 __all__ = ["Flank", "FreeformProfile"]
 
@@ -78,7 +77,7 @@ class Flank(eqx.Module):
         return self.curvature.shape[-1]
 
 
-class FreeformProfile(eqx.Module):
+class FreeformProfile(SprocketDerived, eqx.Module):
     """A sprocket's tooth profile with free-form asymmetric flanks and per-tooth patterns.
 
     All geometric fields are array leaves (differentiable); ``teeth`` and
@@ -180,24 +179,6 @@ class FreeformProfile(eqx.Module):
         """K, arcs per flank (both sides have the same K)."""
         return self.ccw.arcs
 
-    @property
-    def pitch_diameter(self) -> Array:
-        """d = p / sin(π/z) [m] (the nominal pitch circle; seats may be offset from it)."""
-        return self.pitch / jnp.sin(jnp.pi / self.teeth)
-
-    @property
-    def pitch_radius(self) -> Array:
-        return self.pitch_diameter / 2
-
-    @property
-    def roller_radius(self) -> Array:
-        return self.roller_diameter / 2
-
-    @property
-    def seat_clearance(self) -> Array:
-        """ri − d1/2 [m] (per gap where ri is per gap)."""
-        return self.seating_radius - self.roller_radius
-
     def shape(self) -> FreeShape:
         """What the contact reads, with ``teeth`` an array leaf (see :class:`FreeShape`)."""
         return FreeShape(
@@ -217,13 +198,6 @@ class FreeformProfile(eqx.Module):
         side. For plotting (NumPy, not traced)."""
         g = self.gaps()
         return _gap_outline(g, gap, n)
-
-    def to_dxf(self, path) -> Path:
-        """Write the whole sprocket's closed outline to ``path`` as exact DXF ARC entities
-        in millimetres (axis at the origin, gap 0 on +x), for CAD/CNC. Returns the path."""
-        from ._cad import write_dxf
-
-        return write_dxf(self, path)
 
     def sprocket_outline(self, n: int = 30) -> np.ndarray:
         """Closed outline (N, 2) [m] of the whole sprocket (all z gaps)."""

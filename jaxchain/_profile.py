@@ -87,7 +87,39 @@ class ProfileGeometry(NamedTuple):
     half_angle: Float[Array, ""]  # π / z
 
 
-class ToothProfile(eqx.Module):
+class SprocketDerived:
+    """What every tooth profile derives alike from its ``teeth``, ``pitch``,
+    ``roller_diameter`` and ``seating_radius`` (a field-less mixin of the profile
+    classes), and its CAD export."""
+
+    @property
+    def pitch_diameter(self) -> Array:
+        """d = p / sin(π/z) [m] (the nominal pitch circle; seats may be offset from it)."""
+        return self.pitch / jnp.sin(jnp.pi / self.teeth)
+
+    @property
+    def pitch_radius(self) -> Array:
+        return self.pitch_diameter / 2
+
+    @property
+    def roller_radius(self) -> Array:
+        return self.roller_diameter / 2
+
+    @property
+    def seat_clearance(self) -> Array:
+        """ri − d1/2 [m]: radial play of a roller centred in its seat (per gap where ri
+        is per gap)."""
+        return self.seating_radius - self.roller_radius
+
+    def to_dxf(self, path) -> Path:
+        """Write the whole sprocket's closed outline to ``path`` as exact DXF ARC entities
+        in millimetres (axis at the origin, gap 0 on +x), for CAD/CNC. Returns the path."""
+        from ._cad import write_dxf
+
+        return write_dxf(self, path)
+
+
+class ToothProfile(SprocketDerived, eqx.Module):
     """A sprocket's tooth-gap profile: seat arc, two flank arcs, tip circle.
 
     All geometric fields are array leaves (differentiable); ``teeth`` is static.
@@ -180,24 +212,6 @@ class ToothProfile(eqx.Module):
         return cls(**kw)
 
     # ------------------------------------------------------------------ derived
-    @property
-    def pitch_diameter(self) -> Array:
-        """d = p / sin(π/z) [m]."""
-        return self.pitch / jnp.sin(jnp.pi / self.teeth)
-
-    @property
-    def pitch_radius(self) -> Array:
-        return self.pitch_diameter / 2
-
-    @property
-    def roller_radius(self) -> Array:
-        return self.roller_diameter / 2
-
-    @property
-    def seat_clearance(self) -> Array:
-        """ri − d1/2 [m]: radial play of a roller centred in its seat."""
-        return self.seating_radius - self.roller_radius
-
     def geometry(self) -> ProfileGeometry:
         """Derived points of gap 0 (upper half), differentiable in the profile's leaves."""
         return _geometry(
@@ -232,13 +246,6 @@ class ToothProfile(eqx.Module):
         ang = 2 * math.pi * gap / self.teeth
         rot = np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]])
         return pts @ rot.T
-
-    def to_dxf(self, path) -> Path:
-        """Write the whole sprocket's closed outline to ``path`` as exact DXF ARC entities
-        in millimetres (axis at the origin, gap 0 on +x), for CAD/CNC. Returns the path."""
-        from ._cad import write_dxf
-
-        return write_dxf(self, path)
 
     def sprocket_outline(self, n: int = 30) -> np.ndarray:
         """Closed outline (N, 2) [m] of the whole sprocket (all z gaps)."""
