@@ -248,7 +248,6 @@ def _check_box_sampled(space: DesignSpace) -> None:
             [np.full((1, n), 0.5), np.zeros((1, n)), np.ones((1, n)),
              rng.integers(0, 2, (64, n)).astype(float)]
         )  # fmt: skip
-    lo, hi = np.asarray(space.lower), np.asarray(space.upper)
     eps = 1e-9
     for pick in picks:
         frac = np.clip(pick, eps, 1 - eps)
@@ -270,7 +269,6 @@ def _check_box_sampled(space: DesignSpace) -> None:
             raise ValueError(
                 f"the design box reaches outside valid tooth profiles: at its corner ({corner}) {e}"
             ) from None
-    del lo, hi
 
 
 def _check_box(template: ToothProfile, lo: np.ndarray, hi: np.ndarray) -> None:

@@ -251,14 +251,7 @@ def _check_shapes(p: FreeformProfile) -> None:
         a, c, b = jnp.shape(f.seat_angle), jnp.shape(f.curvature), jnp.shape(f.breaks)
         k = c[-1]
         ks.add(k)
-        per_gap = a == (z,) or c == (z, k) or b == (z, k - 1)
-        ok = (
-            k >= 1
-            and a in ((), (z,))
-            and c in ((k,), (z, k))
-            and b in ((k - 1,), (z, k - 1))
-            and not (per_gap and c[:-1] == () and b[:-1] == () and a == ())
-        )
+        ok = k >= 1 and a in ((), (z,)) and c in ((k,), (z, k)) and b in ((k - 1,), (z, k - 1))
         if not ok:
             raise ValueError(
                 f"FreeformProfile: {side} flank shapes must be seat_angle () or ({z},), "
@@ -381,7 +374,7 @@ def _validate(p: FreeformProfile) -> None:
             _check_flank(g, k, s, side, ra)
     # tooth widths on the tip circle: gap k's ccw corner to gap k+1's cw corner
     ang = np.arctan2(g.vertices[..., -1, 1], g.vertices[..., -1, 0])  # (z, 2), local
-    theta = 2 * np.pi * np.arange(z) / z + phase
+    theta = g.theta
     ccw_corner = theta + ang[:, 0]
     cw_corner_next = (
         np.roll(theta, -1)

@@ -310,13 +310,12 @@ def gap_table(shape: FreeShape) -> tuple[GapTable, bool]:
     Per-gap: one row per gap, sprocket frame. Uniform: gaps 0 and 1 in gap 0's frame
     (every pair of neighbours is that pair rotated), and gap 2 for gap 1's tip."""
     z = shape.teeth
-    n = jnp.asarray(shape.seating_radius).shape[0] if jnp.ndim(shape.seating_radius) else None
-    for f in (shape.cw, shape.ccw):
-        n = n or (f.seat_angle.shape[0] if f.seat_angle.ndim else None)
-        n = n or (f.curvature.shape[0] if f.curvature.ndim == 2 else None)
-        n = n or (f.breaks.shape[0] if f.breaks.ndim == 2 else None)
-    n = n or (jnp.asarray(shape.seat_offset).shape[0] if jnp.ndim(shape.seat_offset) else None)
-    n = n or (jnp.asarray(shape.phase).shape[0] if jnp.ndim(shape.phase) else None)
+    # leaves with one value per gap (a flank's curvature and breaks: a leading gap axis)
+    leaves = [shape.seating_radius, shape.seat_offset, shape.phase]
+    leaves += [f.seat_angle for f in (shape.cw, shape.ccw)]
+    gapped = [x for x in leaves if jnp.ndim(x)]
+    gapped += [x for f in (shape.cw, shape.ccw) for x in (f.curvature, f.breaks) if x.ndim == 2]
+    n = jnp.shape(gapped[0])[0] if gapped else None
     per_gap = n is not None  # any leaf with one value per gap: geometry for each gap
     radius = shape.pitch / (2 * jnp.sin(jnp.pi / z))
     ra = shape.tip_diameter / 2
