@@ -1,6 +1,7 @@
 """Scene builders: a scene is data (bodies, force elements, sprockets, loads).
 
 scene = jc.scenes.drive("08B", teeth=(18, 36), speed_rpm=1000, fidelity="lumped")
+scene = jc.scenes.drive("08B", teeth=(18, 36, 27), centres=((0, 0), (0.3, 0.05), (0.15, 0.25)))
 scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
 """
 
@@ -14,8 +15,10 @@ from ._scenes.build import (
 from ._scenes.drive import drive as drive
 from ._scenes.engagement import engagement as engagement
 from ._scenes.layout import (
+    LoopLayout as LoopLayout,
     closed_drive_layout as closed_drive_layout,
     strand_layout as strand_layout,
     transport_velocity as transport_velocity,
 )
+from ._scenes.loop import loop_layout as loop_layout
 from ._scenes.statics import equilibrate as equilibrate, resettle as resettle

@@ -31,6 +31,7 @@ from .._profile import MAX_TEETH, MIN_TEETH
 
 __all__ = [
     "DriveLayout",
+    "LoopLayout",
     "StrandLayout",
     "closed_drive_layout",
     "strand_layout",
@@ -69,6 +70,54 @@ class DriveLayout(NamedTuple):
     gap_of: np.ndarray
     wrap: np.ndarray
     span: np.ndarray
+
+
+class LoopLayout(NamedTuple):
+    """A closed chain over N sprockets, run as one counter-clockwise loop through them in
+    the order given (built by :func:`~jaxchain.scenes.loop_layout`). Sprocket 0 drives;
+    span j runs from sprocket j to sprocket j + 1 (mod N). Rollers are ordered along the
+    chain in its direction of travel: from the first seated roller of sprocket 0 round
+    its wrap, along span 0, round sprocket 1, and so on back to sprocket 0.
+
+    Attributes:
+        n_links: number of rollers (= pitches) of the loop, even.
+        rollers: (n_links, 2) roller centres, world frame [m].
+        centres: (N, 2) sprocket axes [m]: the ones given, the take-up's moved to close.
+        theta: (N,) sprocket angles [rad]: gap k of sprocket i is centred at world angle
+            θi + 2πk/zi about its axis.
+        teeth: (N,) tooth counts.
+        sense: (N,) +1 for a sprocket inside the loop (wrapped counter-clockwise), −1 for
+            one outside it (an idler on the chain's back, wrapped clockwise).
+        sprocket_of: (n_links,) the sprocket a roller is seated on, −1 on a span.
+        gap_of: (n_links,) the gap a seated roller sits in, −1 on a span.
+        wrap: (N,) seated rollers on each sprocket (≥ 1).
+        span: (N,) link pitches of each span (≥ 1).
+        take_up: index of the sprocket moved to close the loop (the take-up sprocket).
+        take_up_direction: (2,) unit direction it moved along: the outward bisector of
+            its two spans (moving along it lengthens both).
+        take_up_shift: how far it moved [m] (negative: inward).
+        take_up_vector: (2,) the force on the take-up axis per newton of a take-up that
+            leaves take_up/2 in each of its spans: (u_in − u_out)/2, u the unit
+            directions of travel of its arriving and departing spans, |·| = cos α with 2α
+            the angle between the spans seen from the sprocket.
+        link_pitch: roller spacing laid out [m].
+    """
+
+    n_links: int
+    rollers: np.ndarray
+    centres: np.ndarray
+    theta: np.ndarray
+    teeth: np.ndarray
+    sense: np.ndarray
+    sprocket_of: np.ndarray
+    gap_of: np.ndarray
+    wrap: np.ndarray
+    span: np.ndarray
+    take_up: int
+    take_up_direction: np.ndarray
+    take_up_shift: float
+    take_up_vector: np.ndarray
+    link_pitch: float
 
 
 class StrandLayout(NamedTuple):
@@ -388,9 +437,13 @@ def _assemble(fam: _Family, cl: _Closure) -> DriveLayout:
     )
 
 
-def transport_velocity(layout: DriveLayout, omega1: float, z1: int, z2: int) -> np.ndarray:
+def transport_velocity(
+    layout: DriveLayout | LoopLayout, omega1: float, z1: int | None = None, z2: int | None = None
+) -> np.ndarray:
     """(n_links, 2) roller velocities [m/s] of rigid transport at driver speed ``omega1``
-    [rad/s] (CCW > 0), the driven sprocket turning at ω2 = ω1·z1/z2.
+    [rad/s] (CCW > 0), every other sprocket k turning at ωk = ±ω1·z1/zk (minus for one
+    outside the loop, which turns clockwise). For a :class:`DriveLayout` give the tooth
+    counts ``z1``, ``z2``; a :class:`LoopLayout` carries its own (leave them out).
 
     Seated rollers move with their sprocket: v = ω × (x − axis). Span rollers get the
     velocity interpolated linearly (by index, i.e. by arc length) between the span's two
@@ -399,15 +452,32 @@ def transport_velocity(layout: DriveLayout, omega1: float, z1: int, z2: int) -> 
     span and the sprocket tangent at its end), so the span's links start with a small
     rate of stretch, at most that difference divided by the span's pitch count.
     """
+    if isinstance(layout, LoopLayout):
+        if z1 is not None or z2 is not None:
+            raise ValueError(
+                "transport_velocity: a LoopLayout carries its tooth counts; leave z1 and z2 out"
+            )
+        teeth = np.asarray(layout.teeth)
+        omegas = tuple(
+            float(omega1) * int(teeth[0]) / int(z) * int(s)
+            for z, s in zip(teeth, layout.sense, strict=True)
+        )
+        return _rigid_transport(layout.rollers, layout.sprocket_of, layout.centres, omegas)
     z1 = _check_teeth("z1", z1)
     z2 = _check_teeth("z2", z2)
-    x = np.asarray(layout.rollers, dtype=float)
-    sof = np.asarray(layout.sprocket_of)
-    n = len(x)
     axes = np.array([[0.0, 0.0], [float(layout.centre_distance), 0.0]])
     omegas = (float(omega1), float(omega1) * z1 / z2)
+    return _rigid_transport(layout.rollers, layout.sprocket_of, axes, omegas)
+
+
+def _rigid_transport(rollers, sprocket_of, axes, omegas) -> np.ndarray:
+    """Seated rollers turning with their sprocket (axes (S, 2), speeds omegas (S,)), span
+    rollers interpolated by index between their span's end rollers."""
+    x = np.asarray(rollers, dtype=float)
+    sof = np.asarray(sprocket_of)
+    n = len(x)
     v = np.zeros_like(x)
-    for s in (0, 1):
+    for s in range(len(omegas)):
         r = x[sof == s] - axes[s]
         v[sof == s] = omegas[s] * np.stack([-r[:, 1], r[:, 0]], -1)
     seated = np.nonzero(sof >= 0)[0]
