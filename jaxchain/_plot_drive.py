@@ -191,7 +191,8 @@ def plot_tensions(
 def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None):
     """Sprocket speeds [rpm] against time [ms] (positive counter-clockwise).
 
-    With ``scene`` the lines are labelled with each sprocket's role and tooth count.
+    With ``scene`` the lines are labelled with each sprocket's role (driver, driven, or
+    idler: a loop's sprocket without load) and tooth count.
     Returns the Axes.
     """
     _solution(sol, "plot_speed", scene)
@@ -203,6 +204,9 @@ def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None):
         if scene is not None and k < len(scene.sprockets):
             spr = scene.sprockets[k]
             role = "driven" if spr.driven else "driver"
+            idle = len(scene.sprockets) > 2 and not np.any(np.asarray(spr.load_torque))
+            if spr.driven and idle:
+                role = "idler"
             label += f" ({role}, z = {spr.profile.teeth})"
         ax.plot(t_ms, rpm[:, k], lw=1.2, label=label)
     ax.set_xlabel("time [ms]")

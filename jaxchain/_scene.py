@@ -52,6 +52,10 @@ class Sprocket(eqx.Module):
             radius can touch it, so wrap + a few is exact; ``simulate`` reports
             ``Result.contact_slots_exceeded`` if the farthest slot ever comes within reach
             (static).
+        take_up_vector: (2,) force on the axis per newton of the statics' take-up
+            (:func:`~jaxchain.scenes.equilibrate`); the axis moves along it while the scene
+            settles, and (0, 0) holds it. None (the default): a driven axis is pushed by
+            the whole take-up away from the first sprocket's axis, along their centre line.
     """
 
     profile: ToothProfile | FreeformProfile
@@ -63,6 +67,7 @@ class Sprocket(eqx.Module):
     load_ramp: Float[Array, ""]
     driven: bool = eqx.field(static=True)
     contact_slots: int | None = eqx.field(static=True)
+    take_up_vector: Float[Array, 2] | None
 
     def __init__(
         self,
@@ -76,6 +81,7 @@ class Sprocket(eqx.Module):
         load_ramp=0.0,
         driven=False,
         contact_slots=None,
+        take_up_vector=None,
     ):
         self.profile = profile
         self.centre = jnp.asarray(centre, dtype=float)
@@ -86,6 +92,9 @@ class Sprocket(eqx.Module):
         self.load_ramp = jnp.asarray(load_ramp, dtype=float)
         self.driven = bool(driven)
         self.contact_slots = None if contact_slots is None else int(contact_slots)
+        self.take_up_vector = (
+            None if take_up_vector is None else jnp.asarray(take_up_vector, dtype=float)
+        )
 
     def load(self, t):
         """Load torque at time t [N·m] (smoothstep ramp over ``load_ramp``)."""
@@ -101,6 +110,11 @@ class Sprocket(eqx.Module):
             )
         if np.shape(self.centre)[-1:] != (2,):
             raise ValueError(f"Sprocket: centre must be (x, y), got shape {np.shape(self.centre)}")
+        if self.take_up_vector is not None and np.shape(self.take_up_vector)[-1:] != (2,):
+            raise ValueError(
+                "Sprocket: take_up_vector must be (x, y) or None, got shape "
+                f"{np.shape(self.take_up_vector)}"
+            )
         if self.contact_slots is not None and self.contact_slots < 1:
             raise ValueError(
                 f"Sprocket: contact_slots must be an integer >= 1 or None (check every "
@@ -111,6 +125,10 @@ class Sprocket(eqx.Module):
         for name in ("centre", "speed", "inertia", "load_torque", "angle0", "load_ramp"):
             if not np.all(np.isfinite(np.asarray(getattr(self, name)))):
                 raise ValueError(f"Sprocket: {name} must be finite, got {getattr(self, name)}")
+        if self.take_up_vector is not None and not np.all(
+            np.isfinite(np.asarray(self.take_up_vector))
+        ):
+            raise ValueError(f"Sprocket: take_up_vector must be finite, got {self.take_up_vector}")
         if np.any(np.asarray(self.load_ramp) < 0):
             raise ValueError(f"Sprocket: load_ramp must be >= 0 s, got {self.load_ramp}")
         if self.driven and not np.all(np.asarray(self.inertia) > 0):

@@ -1,9 +1,13 @@
-"""``drive``: a closed chain over a driver and a driven sprocket."""
+"""``drive``: a closed chain over a driver and one driven sprocket, or over several
+sprockets (:mod:`.loop_drive`)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Literal
+
+import numpy as np
 
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
@@ -22,6 +26,7 @@ from .common import (
     stretch_of,
 )
 from .layout import closed_drive_layout, transport_velocity
+from .loop_drive import loop_drive
 from .statics import equilibrate
 
 __all__ = ["drive"]
@@ -29,20 +34,23 @@ __all__ = ["drive"]
 
 def drive(
     chain: ChainSpec | str = "08B",
-    teeth: tuple[int, int] = (18, 36),
+    teeth: Sequence[int] = (18, 36),
     *,
+    centres: Sequence[tuple[float, float]] | None = None,
+    outside: Sequence[int] = (),
+    take_up_sprocket: int | None = None,
     centre_distance: float | None = None,
     n_links: int | None = None,
     speed_rpm: float = 1000.0,
-    load_torque: float = 20.0,
+    load_torque: float | Sequence[float] = 20.0,
     pretension: float = 200.0,
     fidelity: Literal["lumped", "clearance"] = "lumped",
     form: Literal["min", "max", "mid"] = "mid",
-    profiles: tuple[ToothProfile, ToothProfile] | None = None,
+    profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
     restitution: float = 0.7,
     friction: CoulombFriction | None = None,
     joint_friction: CoulombFriction | None = JOINT_FRICTION,
-    driven_inertia: float | None = None,
+    driven_inertia: float | Sequence[float] | None = None,
     load_ramp: float | None = None,
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
@@ -51,7 +59,8 @@ def drive(
     link_damping: float = 0.05,
 ) -> Scene:
     """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
-    ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``.
+    ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``; or,
+    with ``centres``, over any number of sprockets (below).
 
     The initial configuration is consistent: rollers seated at the pitch points of the
     wrap arcs, straight spans of whole pitches, the centre distance C adjusted (by less
@@ -65,15 +74,35 @@ def drive(
     open and the load is ramped in smoothly over ``load_ramp`` (default: one driver
     revolution) so the tight span stretches without a shock.
 
+    Several sprockets: give ``teeth=(z1, …, zN)`` and their axes ``centres=((x1, y1), …)``
+    [m]. The first (index 0) drives; the chain passes the sprockets in the order given as one
+    counter-clockwise loop, wrapping counter-clockwise the ones inside it and clockwise
+    the ``outside`` ones (idlers on the chain's back, turning clockwise). A driven
+    sprocket with zero load torque is an idler. The layout closes exactly
+    (:func:`~jaxchain.scenes.loop_layout`): the take-up sprocket moves along the outward
+    bisector of its spans by what closes the loop with ``n_links`` (default: the even
+    count nearest the belt length), and while the scene settles it is pushed along that
+    bisector so that its two spans carry 2·pretension between them; the other axes stay
+    where given. Every sprocket k starts at ±ω1·z1/zk.
+
     Args:
         chain: an ISO 606 designation or a :class:`ChainSpec`.
-        teeth: (driver, driven) tooth counts.
+        teeth: tooth counts, driver first: (driver, driven), or N of them with ``centres``.
+        centres: (N, 2) axis positions [m] in the order the chain passes them (None: the
+            two-sprocket drive on the x axis).
+        outside: indices in [1, N − 1] of sprockets outside the loop (needs ``centres``).
+        take_up_sprocket: the sprocket that closes the loop and takes up the pretension,
+            in [1, N − 1] (default N − 1; needs ``centres``).
+        centre_distance: two-sprocket drive: C [m] (adjusted by less than a pitch to close).
+        n_links: even number of links.
         speed_rpm: driver speed [rpm], > 0.
-        load_torque: resisting torque on the driven sprocket [N·m], ≥ 0.
+        load_torque: resisting torque [N·m], ≥ 0, on every driven sprocket (a scalar) or
+            one per driven sprocket.
         pretension: chain tension at rest [N], ≥ 0.
         fidelity: "lumped" (rollers + elastic links) or "clearance" (rigid links,
             pin/bush and bush/roller clearance joints).
-        form: ISO 606 tooth form of both sprockets (ignored if ``profiles`` is given).
+        form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
+        profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
         restitution: coefficient of restitution of every contact at ``impact_speed``.
         friction: roller/tooth friction (None: frictionless).
         joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
@@ -82,7 +111,8 @@ def drive(
             the spans' transverse vibration: without it the spans' mean tension
             climbs to several times the static (``python -m
             benchmarks.tension_climb``).
-        driven_inertia: [kg·m²]; default a steel disc of the pitch diameter.
+        driven_inertia: [kg·m²], of every driven sprocket or one per driven sprocket;
+            default a steel disc of the pitch diameter.
         impact_speed: reference impact speed of the history-free damping [m/s].
         rollers_on_bush: clearance fidelity: roller as its own body on a clearance joint
             ("joint") or fixed to its bush ("lumped").
@@ -93,9 +123,6 @@ def drive(
             the load ramped in (default True).
     """
     chain = as_chain(chain)
-    z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
-    for k, z in enumerate((z1, z2)):
-        checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
     speed_rpm = check_common(
         speed_rpm=speed_rpm,
         fidelity=fidelity,
@@ -109,6 +136,54 @@ def drive(
         settle=settle,
         link_damping=link_damping,
     )
+    if centres is not None:
+        if centre_distance is not None:
+            raise ValueError(
+                "give centres (the axes of every sprocket) or centre_distance (two sprockets "
+                "on the x axis), not both"
+            )
+        return loop_drive(
+            chain,
+            teeth,
+            centres,
+            outside=outside,
+            take_up_sprocket=take_up_sprocket,
+            n_links=n_links,
+            speed_rpm=speed_rpm,
+            load_torque=load_torque,
+            pretension=pretension,
+            fidelity=fidelity,
+            form=form,
+            profiles=profiles,
+            restitution=restitution,
+            friction=friction,
+            joint_friction=joint_friction,
+            driven_inertia=driven_inertia,
+            load_ramp=load_ramp,
+            impact_speed=impact_speed,
+            rollers_on_bush=rollers_on_bush,
+            roller_contact=roller_contact,
+            settle=settle,
+            link_damping=link_damping,
+        )
+    given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
+    for name, value in given.items():
+        if value:
+            raise ValueError(
+                f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
+            )
+    if (
+        isinstance(teeth, Sequence | np.ndarray)
+        and not isinstance(teeth, (str, bytes))
+        and len(teeth) != 2
+    ):
+        raise ValueError(
+            f"teeth must hold 2 tooth counts (driver, driven), got {len(teeth)}: {teeth!r}; "
+            "for a drive over more sprockets give their axes in centres=((x1, y1), ...)"
+        )
+    z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
+    for k, z in enumerate((z1, z2)):
+        checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
     load_torque = checks.real("load_torque", load_torque, lo=0.0, unit="N·m")
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     if centre_distance is not None:

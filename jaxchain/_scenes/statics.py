@@ -47,13 +47,14 @@ __all__ = ["equilibrate", "resettle"]
 
 def _unpack(scene, x, pitch):
     """Scene and state for the unknowns x: body displacements (pitches; angles in
-    pitch/1 m rad), then per sprocket an angle change and an axis shift along the centre
-    line (pitches)."""
+    pitch/1 m rad), then per sprocket an angle change and an axis shift along its take-up
+    direction (pitches)."""
     n, ns = scene.n_bodies, len(scene.sprockets)
     q = scene.q0 + x[: 3 * n].reshape(n, 3) * pitch
     theta = jnp.stack([s.angle0 for s in scene.sprockets]) + x[3 * n : 3 * n + ns] * pitch
     shift = x[3 * n + ns :] * pitch
-    centres = [s.centre + shift[k] * _axis_dir(scene, k) for k, s in enumerate(scene.sprockets)]
+    dirs, _ = _take_up(scene)
+    centres = [s.centre + shift[k] * dirs[k] for k, s in enumerate(scene.sprockets)]
     scene = eqx.tree_at(lambda sc: [s.centre for s in sc.sprockets], scene, centres)
     y = DriveState(q=q, v=jnp.zeros_like(q), theta=theta, omega=jnp.zeros_like(theta))
     return scene, y
@@ -64,6 +65,24 @@ def _axis_dir(scene, k):
     d = scene.sprockets[k].centre - scene.sprockets[0].centre
     nrm = jnp.sqrt(jnp.sum(d * d))
     return jnp.where(nrm > 0, d / jnp.where(nrm > 0, nrm, 1.0), jnp.array([1.0, 0.0]))
+
+
+def _take_up(scene):
+    """(S, 2) unit directions in which the take-up moves each axis and (S,) the force on
+    it per newton of take-up: a sprocket's ``take_up_vector`` split into direction and
+    length, or (``None``) the whole take-up on each driven sprocket away from the first
+    sprocket's axis."""
+    dirs, gains = [], []
+    for k, s in enumerate(scene.sprockets):
+        if s.take_up_vector is None:
+            dirs.append(_axis_dir(scene, k))
+            gains.append(jnp.asarray(1.0 if s.driven else 0.0))
+        else:
+            v = s.take_up_vector
+            nrm = jnp.sqrt(jnp.sum(v * v))
+            dirs.append(jnp.where(nrm > 0, v / jnp.where(nrm > 0, nrm, 1.0), 0.0))
+            gains.append(nrm)
+    return jnp.stack(dirs), jnp.stack(gains)
 
 
 def _residual(x, args):
@@ -85,7 +104,7 @@ def _residual(x, args):
     moment = jnp.where(
         free, (fr.sprocket_torque - loads) / (force_scale * pitch), pin[3 * n : 3 * n + ns]
     )
-    dirs = jnp.stack([_axis_dir(scene, k) for k in range(ns)])
+    dirs, _ = _take_up(scene)
     pull = jnp.sum(fr.sprocket_force * dirs, -1) + take_up
     axis = jnp.where(take_up > 0, pull / force_scale, pin[3 * n + ns :])
     # a vanishing spring (reg, scaled units) to the start: a roller floating in its bush's
@@ -236,11 +255,14 @@ def equilibrate(
     no equilibrium is found.
 
     Args:
-        take_up: force [N] pushing each driven sprocket's axis away from the first
-            sprocket's, along their centre line, while it settles (a tensioner): the chain
-            then carries take_up/2 in each span before the load. After settling the axis
-            stays where it came to rest. A closed chain needs this: its rollers' free play
-            in the seats swallows any pretension built into the layout's link stretch.
+        take_up: force [N] pushing the take-up axes while the scene settles (a
+            tensioner): each driven sprocket's away from the first sprocket's, along their
+            centre line (two-sprocket drives), or the take-up sprocket's of a loop over
+            several sprockets along the outward bisector of its spans, by take_up·cos α
+            (each sprocket's ``take_up_vector``). The chain then carries take_up/2 in each
+            span at the take-up before the load. After settling the axis stays where it
+            came to rest. A closed chain needs this: its rollers' free play in the seats
+            swallows any pretension built into the layout's link stretch.
         max_steps: most steps of the trust-region polish.
         tolerance: largest force residual accepted, relative to the largest applied
             force (tension, take-up/2 or load torque over pitch radius).
@@ -255,7 +277,7 @@ def equilibrate(
     scene = _at_rest(scene)
     ns = len(scene.sprockets)
     driven = jnp.array([s.driven for s in scene.sprockets])
-    push = jnp.where(driven, take_up, 0.0)
+    push = take_up * _take_up(scene)[1]
     force_scale = max(1.0, take_up / 2)
     if scene.anchors is not None:
         force_scale = max(force_scale, float(jnp.max(scene.anchors.tension)))
@@ -333,7 +355,7 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
     ns, n = len(scene.sprockets), scene.n_bodies
     pitch = scene.sprockets[0].profile.pitch
     driven = jnp.array([s.driven for s in scene.sprockets])
-    push = jnp.where(driven, jnp.asarray(take_up, dtype=float), 0.0)
+    push = jnp.asarray(take_up, dtype=float) * _take_up(scene)[1]
     scale = [jnp.asarray(1.0), jnp.max(push) / 2]
     if scene.anchors is not None:
         scale.append(jnp.max(scene.anchors.tension))
