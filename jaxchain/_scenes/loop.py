@@ -244,7 +244,7 @@ def _check_overlap(centres, tips, what: str) -> None:
                 )
 
 
-def _check_spans(starts, ends, centres, reach, what: str) -> None:
+def _check_spans(starts, ends, centres, reach, sense, what: str) -> None:
     """No span within reach of a sprocket other than its two ends; no two spans cross."""
     n = len(centres)
     for j in range(n):
@@ -257,7 +257,12 @@ def _check_spans(starts, ends, centres, reach, what: str) -> None:
                     f"{what}span {j} (from sprocket {j} to {(j + 1) % n}) cuts through "
                     f"sprocket {k}: it passes {d * 1e3:.4g} mm from its axis, within the tip "
                     f"radius plus a roller radius ({reach[k] * 1e3:.4g} mm); move sprocket {k} "
-                    "clear of the chain, or list it in outside if the chain runs over its back"
+                    "clear of the chain"
+                    + (
+                        ", or list it in outside if the chain runs over its back"
+                        if sense[k] > 0
+                        else ""
+                    )
                 )
     for i in range(n):
         for j in range(i + 2, n):
@@ -357,7 +362,7 @@ def loop_layout(
     if not circ.ok:  # pragma: no cover - tip circles apart: every tangent exists
         raise ValueError("centres: two consecutive sprockets have no common tangent")
     _check_circles(circ, teeth, sense, "centres: ")
-    _check_spans(circ.t_out, np.roll(circ.t_in, -1, axis=0), centres, reach, "centres: ")
+    _check_spans(circ.t_out, np.roll(circ.t_in, -1, axis=0), centres, reach, sense, "centres: ")
     if n_links is None:
         n_links = 2 * round(circ.length / (2 * lp))
     n_links = _check_count("n_links", n_links, 2)
@@ -502,7 +507,7 @@ def _assemble(loop, thetas, centres, spans, wraps, n_links, m, direction, shift,
         raise RuntimeError(f"internal error: {len(rollers)} rollers for {n_links} links")
     what = f"n_links={n_links} (sprocket {m} moved {shift * 1e3:.4g} mm to close the loop): "
     _check_overlap(centres, tips, what)
-    _check_spans(np.array(starts), np.array(ends), centres, reach, what)
+    _check_spans(np.array(starts), np.array(ends), centres, reach, loop.s, what)
     step = np.roll(rollers, -1, axis=0) - rollers
     turn = np.arctan2(
         _cross(step, np.roll(step, -1, axis=0)), np.sum(step * np.roll(step, -1, 0), -1)
