@@ -19,7 +19,14 @@ from ._chain import ChainSpec
 from ._ensemble import stack
 from ._freeform import FreeformProfile
 from ._numerics import is_concrete
-from ._observers import EXP_CAP as EXP_CAP, SoftPeak, window_weight as window_weight
+from ._observers import (
+    EXP_CAP as EXP_CAP,
+    AbstractIntegralObserver,
+    AbstractObserver,
+    AbstractStepObserver,
+    SoftPeak,
+    window_weight as window_weight,
+)
 from ._options import SolveOptions, with_options
 from ._profile import ToothProfile, iso606_limits
 from ._result import Result, raise_if_failed
@@ -31,6 +38,9 @@ __all__ = [
     "PARAMETERS",
     "DesignSpace",
     "PeakForce",
+    "Observed",
+    "Penalized",
+    "observe",
     "soft_peak_force",
     "window_weight",
     "ProfileObjective",
@@ -299,6 +309,115 @@ def _check_box(template: ToothProfile, lo: np.ndarray, hi: np.ndarray) -> None:
             ) from None
 
 
+class Observed(NamedTuple):
+    """Result of :func:`observe` (and each member's, from :class:`ProfileObjective`)."""
+
+    value: Array  # the observer's value
+    result: Result
+    num_steps: Array
+
+    @property
+    def soft(self) -> Array:
+        """The value (for the default objective, the soft peak force [N])."""
+        return self.value
+
+
+def _objective_observer(observer, caller: str):
+    if not isinstance(observer, (AbstractIntegralObserver, AbstractStepObserver)):
+        raise TypeError(
+            f"{caller}: the objective must be a jc.observers observer with a scalar value "
+            f"(SoftPeak, BandLevel, SpeedVariation, design.Penalized, ...), got "
+            f"{type(observer).__name__}"
+        )
+    return observer
+
+
+def observe(
+    scene: Scene,
+    t1: ArrayLike,
+    observer: AbstractObserver,
+    *,
+    options: SolveOptions | None = None,
+    **solve_options,
+) -> Observed:
+    """One observer's value over [0, t1], carried by the one solve (``simulate``'s), the
+    outcome reported as a result code (classified as ``simulate`` classifies it), not
+    raised. Solve options as in :func:`~jaxchain.simulate`; ``dt`` gives fixed steps with
+    every step checkpointed (for gradients checked against finite differences)."""
+    opts = with_options(options, solve_options, "observe")
+    _objective_observer(observer, "observe")
+    if is_concrete(t1):
+        t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
+    return _observe(scene, t1, observer, opts, "observe")
+
+
+def _observe(scene, t1, observer, opts: SolveOptions, caller: str) -> Observed:
+    resolved = opts.resolve(0.0, t1)  # before t1 becomes an array: dt's step count
+    t1 = jnp.asarray(t1, dtype=float)
+    scene = strong_scene(scene, caller)
+    check_horizon(scene, t1, caller)
+    traj = solve(scene, jnp.asarray(0.0, dtype=float), t1, None, resolved, (observer,))
+    return Observed(traj.observed[0], traj.result, traj.stats["num_steps"])
+
+
+class Penalized(AbstractIntegralObserver):
+    """ "Minimize ``objective`` subject to ``constraint`` ≤ ``limit``" as one smooth value,
+    an exterior penalty:
+
+        J = objective + weight · width · softplus((constraint − limit) / width)
+
+    Below the limit by a few ``width`` the penalty vanishes (softplus ≈ 0); above it, it
+    grows with slope ``weight`` [objective units per constraint unit]. Both parts are
+    integrated by the same solve. Example: the largest mesh-order line [dB] with the
+    soft peak force held at the baseline's [N]:
+    ``Penalized(BandLevel.mesh_band(18, 0.2, 2.2), SoftPeak(...), limit=1500.0,
+    weight=0.1, width=10.0)`` costs 0.1 dB per newton over 1500 N.
+
+    Attributes:
+        objective, constraint: integral observers with scalar values.
+        limit: the constraint's bound [its units].
+        weight: penalty slope [objective units per constraint unit], > 0.
+        width: softplus width [constraint units], > 0.
+    """
+
+    objective: AbstractIntegralObserver
+    constraint: AbstractIntegralObserver
+    limit: Float[Array, ""]
+    weight: Float[Array, ""]
+    width: Float[Array, ""]
+
+    def __init__(self, objective, constraint, *, limit, weight=1.0, width=1.0):
+        for name, o in (("objective", objective), ("constraint", constraint)):
+            checks.instance(
+                f"Penalized.{name}", o, AbstractIntegralObserver,
+                "an integral observer (SoftPeak, BandLevel, SpeedVariation, ...)",
+            )  # fmt: skip
+        if is_concrete((limit, weight, width)):
+            checks.real("Penalized.limit", limit)
+            checks.real("Penalized.weight", weight, lo=0.0, lo_open=True)
+            checks.real("Penalized.width", width, lo=0.0, lo_open=True)
+        self.objective = objective
+        self.constraint = constraint
+        self.limit = jnp.asarray(limit, dtype=float)
+        self.weight = jnp.asarray(weight, dtype=float)
+        self.width = jnp.asarray(width, dtype=float)
+
+    def integrand(self, t, y, scene, forces):
+        return (
+            self.objective.integrand(t, y, scene, forces),
+            self.constraint.integrand(t, y, scene, forces),
+        )
+
+    def parts(self, state, t0, t1) -> tuple[Array, Array]:
+        """(objective, constraint) values."""
+        return self.objective.value(state[0], t0, t1), self.constraint.value(state[1], t0, t1)
+
+    def value(self, state, t0, t1):
+        obj, con = self.parts(state, t0, t1)
+        excess = jax.nn.softplus((con - self.limit) / self.width)
+        return obj + self.weight * self.width * excess
+
+
 class PeakForce(NamedTuple):
     """Result of :func:`soft_peak_force`."""
 
@@ -338,24 +457,18 @@ def soft_peak_force(
         checks.real("t_start", t_start, lo=0.0, hi=t1, hi_open=True, unit=f"s (t1 = {t1:.6g} s)")
         if rise is not None:
             checks.real("rise", rise, lo=0.0, unit="s (0: a step)")
-    resolved = opts.resolve(0.0, t1)  # before t1 becomes an array: dt's step count
-    t0 = jnp.asarray(0.0, dtype=float)
-    t1 = jnp.asarray(t1, dtype=float)
     t_start = jnp.asarray(t_start, dtype=float)
-    rise = 0.05 * (t1 - t_start) if rise is None else rise
+    rise = 0.05 * (jnp.asarray(t1, dtype=float) - t_start) if rise is None else rise
     observer = SoftPeak(t_start, rise, temperature, reference)
-    scene = strong_scene(scene, "soft_peak_force")
-    check_horizon(scene, t1, "soft_peak_force")
-    traj = solve(scene, t0, t1, None, resolved, (observer,))
-    return PeakForce(traj.observed[0], traj.result, traj.stats["num_steps"])
+    out = _observe(scene, t1, observer, opts, "soft_peak_force")
+    return PeakForce(out.value, out.result, out.num_steps)
 
 
 class _Config(eqx.Module):
     """Objective settings: arrays are traced, the rest (static) fixes the compiled shape."""
 
-    t_start: Array
-    temperature: Array
-    reference: Array
+    objective: AbstractObserver
+    member_temperature: Array
     options: SolveOptions
     t1: float = eqx.field(static=True)
     sprocket: int = eqx.field(static=True)
@@ -367,14 +480,7 @@ def _member(u, space, scene, cfg):
     k = cfg.sprocket
     scene = eqx.tree_at(lambda s: s.sprockets[k].profile, scene, space.profile(u))
     scene = resettle(scene, take_up=cfg.take_up)
-    return soft_peak_force(
-        scene,
-        cfg.t1,
-        t_start=cfg.t_start,
-        temperature=cfg.temperature,
-        reference=cfg.reference,
-        options=cfg.options,
-    )
+    return observe(scene, cfg.t1, cfg.objective, options=cfg.options)
 
 
 def _loss(u, space, scenes, cfg):
@@ -382,10 +488,10 @@ def _loss(u, space, scenes, cfg):
     member_axes = (None, None, eqx.if_array(0), None)
     out = eqx.filter_vmap(_member, in_axes=member_axes)(u, space, scenes, cfg)
     if cfg.combine == "mean":
-        value = jnp.mean(out.soft)
-    else:  # soft maximum of the members at the same temperature
-        tau = cfg.temperature
-        value = tau * (jax.nn.logsumexp(out.soft / tau) - math.log(out.soft.shape[0]))
+        value = jnp.mean(out.value)
+    else:  # soft maximum of the members (log-mean-exp)
+        tau = cfg.member_temperature
+        value = tau * (jax.nn.logsumexp(out.value / tau) - math.log(out.value.shape[0]))
     return value, out
 
 
@@ -396,26 +502,38 @@ _value_and_grad = eqx.filter_jit(eqx.filter_value_and_grad(_loss, has_aux=True))
 
 
 class ProfileObjective:
-    """The design objective: smooth peak roller/tooth force of the scenes built for a
-    tooth profile, as a function of the design coordinate ``u``.
+    """The design objective: a smooth measure of the scenes built for a tooth profile — by
+    default their soft peak roller/tooth force — as a function of the design coordinate
+    ``u``.
 
     For each evaluation the scenes are built and settled for the concrete profile at
     ``u`` (``build(profile) -> Scene`` or a list of scenes: an ensemble of operating
     points, which must share one structure); inside the differentiated function the
     profile is swapped in and :func:`~jaxchain.scenes.resettle` carries the static
     equilibrium's dependence on the profile into the gradient (implicit function
-    theorem). Ensemble members are vmapped and combined by ``combine`` ("mean" or
-    "max", a soft maximum of the members at the same temperature).
+    theorem). Ensemble members are vmapped and combined by ``combine``: "mean", or
+    "max", a soft maximum of the members (log-mean-exp at ``member_temperature``).
+
+    The measure is ``objective``, any observer with a scalar value integrated by the one
+    solve (:class:`~jaxchain.observers.BandLevel` for the largest mesh-order line [dB],
+    :class:`~jaxchain.observers.SpeedVariation`, :class:`Penalized` for a constrained
+    form, ...); without it, :class:`~jaxchain.observers.SoftPeak` over [``t_start``,
+    ``t1``] at ``temperature`` and ``reference``.
 
     A member whose solve failed makes the evaluation fail: ``RuntimeError`` naming the
     members and what to change (``throw=True``, the default), or with ``throw=False`` a
-    NaN value and gradient, the members' codes in the returned :class:`PeakForce` — never
+    NaN value and gradient, the members' codes in the returned :class:`Observed` — never
     a plausible number from a failed solve.
 
     Args:
-        space: the :class:`DesignSpace`.
+        space: the :class:`DesignSpace` (any number of coordinates).
         build: profile -> settled scene(s) (concrete, outside the gradient).
-        t1, t_start, temperature, reference: as in :func:`soft_peak_force`.
+        t1: end of each solve [s].
+        objective: the observer measured (default: the soft peak force below).
+        t_start, temperature, reference: the default objective's, as in
+            :func:`soft_peak_force`.
+        member_temperature: the members' soft maximum's temperature [objective units]
+            (default ``temperature``).
         sprocket: index of the designed sprocket in the scenes.
         take_up: the take-up the scenes were settled with (closed drives).
         combine: "mean" or "max" over the members.
@@ -430,9 +548,11 @@ class ProfileObjective:
         build: Callable[[ToothProfile], Scene | Sequence[Scene]],
         *,
         t1: float,
+        objective: AbstractObserver | None = None,
         t_start: float = 0.0,
         temperature: float = 50.0,
         reference: float = 0.0,
+        member_temperature: float | None = None,
         sprocket: int = 0,
         take_up: float = 0.0,
         combine: str = "mean",
@@ -452,6 +572,16 @@ class ProfileObjective:
         t_start = checks.real(
             "t_start", t_start, lo=0.0, hi=t1, hi_open=True, unit=f"s (t1 = {t1:.6g} s)"
         )
+        if member_temperature is None:
+            member_temperature = temperature
+        member_temperature = checks.real(
+            "member_temperature", member_temperature, lo=0.0, lo_open=True,
+            unit="(objective units)",
+        )  # fmt: skip
+        if objective is None:
+            rise = 0.05 * (t1 - t_start)
+            objective = SoftPeak(t_start, rise, temperature, reference)
+        _objective_observer(objective, "ProfileObjective")
         sprocket = checks.integer("sprocket", sprocket, lo=0)
         take_up = checks.real("take_up", take_up, lo=0.0, unit="N")
         checks.flag("throw", throw)
@@ -459,9 +589,8 @@ class ProfileObjective:
         self.build = build
         self.throw = bool(throw)
         self.config = _Config(
-            t_start=jnp.asarray(t_start, dtype=float),
-            temperature=jnp.asarray(temperature, dtype=float),
-            reference=jnp.asarray(reference, dtype=float),
+            objective=objective,
+            member_temperature=jnp.asarray(member_temperature, dtype=float),
             options=with_options(options, solve_options, "ProfileObjective"),
             t1=float(t1),
             sprocket=int(sprocket),
@@ -476,7 +605,7 @@ class ProfileObjective:
         return stack([built] if isinstance(built, Scene) else list(built))
 
     def _u(self, u) -> Array:
-        u = _coordinate(u)
+        u = _coordinate(u, "u", self.space.size, self.space.names)
         if is_concrete(u) and not np.all(np.isfinite(np.asarray(u))):
             raise ValueError(f"ProfileObjective: u must be finite, got {np.asarray(u)}")
         return u
@@ -491,7 +620,7 @@ class ProfileObjective:
             )
         self.evaluations += jax.tree_util.tree_leaves(scenes)[0].shape[0]
 
-    def _checked(self, value, grad, out: PeakForce):
+    def _checked(self, value, grad, out: Observed):
         """(value, grad) when every member succeeded; else raise or NaN them."""
         if self.throw:
             raise_if_failed(out.result, None, "ProfileObjective")
@@ -500,15 +629,15 @@ class ProfileObjective:
             grad = None if grad is None else jnp.full_like(grad, jnp.nan)
         return value, grad
 
-    def value(self, u) -> tuple[Array, PeakForce]:
-        """Objective at ``u`` [N] and the members' :class:`PeakForce`."""
+    def value(self, u) -> tuple[Array, Observed]:
+        """Objective at ``u`` and the members' :class:`Observed`."""
         return self.value_on(u, self.scenes(u))
 
-    def value_and_grad(self, u) -> tuple[Array, Array, PeakForce]:
-        """Objective [N], its gradient in ``u`` [N], and the members' results."""
+    def value_and_grad(self, u) -> tuple[Array, Array, Observed]:
+        """Objective, its gradient in ``u``, and the members' results."""
         return self.value_and_grad_on(u, self.scenes(u))
 
-    def value_on(self, u, scenes: Scene) -> tuple[Array, PeakForce]:
+    def value_on(self, u, scenes: Scene) -> tuple[Array, Observed]:
         """:meth:`value` on ``scenes`` already built (``self.scenes(u0)``) and held: the
         profile at ``u`` is swapped in and resettled to first order — the same model the
         gradient at ``u0`` sees, for finite-difference checks."""
@@ -516,7 +645,7 @@ class ProfileObjective:
         value, out = _value(self._u(u), self.space, scenes, self.config)
         return self._checked(value, None, out)[0], out
 
-    def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, PeakForce]:
+    def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, Observed]:
         """:meth:`value_and_grad` on ``scenes`` already built (see :meth:`value_on`)."""
         self._count(scenes)
         u = self._u(u)

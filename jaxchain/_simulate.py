@@ -8,7 +8,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._numerics import is_concrete
-from ._observers import PeakRecord
+from ._observers import AbstractIntegralObserver, AbstractStepObserver, PeakRecord
 from ._options import SolveOptions, with_options
 from ._result import Result, raise_if_failed, result_names
 from ._scene import Scene
@@ -33,6 +33,7 @@ class Solution(eqx.Module):
         result: :class:`Result` code; ``message`` says what happened and what to change.
         stats: solver statistics (num_steps, num_accepted_steps, num_rejected_steps, …).
         y1: the state at t1 (a :class:`~jaxchain.DriveState`).
+        observed: the value of each observer passed to :func:`simulate`, in order.
     """
 
     ts: Float[Array, " T"]
@@ -47,6 +48,7 @@ class Solution(eqx.Module):
     result: Result
     stats: dict
     y1: object
+    observed: tuple = ()
 
     @property
     def ok(self) -> bool:
@@ -117,6 +119,7 @@ def simulate(
     ts: ArrayLike | None = None,
     n_save: int = 501,
     throw: bool = True,
+    observers: tuple[AbstractStepObserver | AbstractIntegralObserver, ...] = (),
     options: SolveOptions | None = None,
     **solve_options,
 ) -> Solution:
@@ -132,6 +135,9 @@ def simulate(
             progress); keyword options (``solver=``, ``rtol=``, ``atol=``, ``dt0=``,
             ``dt=``, ``max_steps=``, ``stepsize_controller=``, ``adjoint=``,
             ``progress=``) set or override its fields.
+        observers: more quantities computed along the solve (:mod:`jaxchain.observers`:
+            e.g. ``OrderSpectrum`` lines of a sprocket's torque, ``SpeedVariation``);
+            their values are ``Solution.observed``, in order.
 
     Returns:
         :class:`Solution`.
@@ -143,7 +149,8 @@ def simulate(
     scene = strong_scene(scene, "simulate")
     t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
     check_horizon(scene, t1a, "simulate")
-    traj = solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(),))
+    observers = _checked_observers(observers, "simulate")
+    traj = solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(), *observers))
     saved = traj.saved
     if throw:
         saved = raise_if_failed(traj.result, saved, "simulate")
@@ -153,5 +160,20 @@ def simulate(
         result=traj.result,
         stats=traj.stats,
         y1=traj.y1,
+        observed=traj.observed[1:],
         **saved,
     )
+
+
+def _checked_observers(observers, caller: str) -> tuple:
+    """``observers`` as a tuple of step or integral observers, or ``TypeError``."""
+    if isinstance(observers, (AbstractStepObserver, AbstractIntegralObserver)):
+        observers = (observers,)
+    if not isinstance(observers, (tuple, list)) or not all(
+        isinstance(o, (AbstractStepObserver, AbstractIntegralObserver)) for o in observers
+    ):
+        raise TypeError(
+            f"{caller}: observers must be a tuple of jc.observers (PeakRecord, SoftPeak, "
+            f"OrderSpectrum, BandLevel, SpeedVariation, ...), got {observers!r}"
+        )
+    return tuple(observers)

@@ -206,8 +206,8 @@ def solve(
 
 
 def _zeros_of(observer: AbstractIntegralObserver, t0, y0, scene):
-    shape = jax.eval_shape(lambda: observer.integrand(t0, y0, scene, forces(t0, y0, scene)))
-    return jnp.zeros(shape.shape, shape.dtype)
+    shapes = jax.eval_shape(lambda: observer.integrand(t0, y0, scene, forces(t0, y0, scene)))
+    return jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
 
 def check_horizon(scene: Scene, t1, caller: str, members: bool = False) -> None:

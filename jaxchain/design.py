@@ -1,17 +1,23 @@
-"""Tooth-profile design: parameters in a box, smooth peak-force objectives.
+"""Tooth-profile design: parameters in a box, smooth objectives computed inside the solve.
 
 space = jc.design.DesignSpace.iso606(chain, 18)        # ISO 606 limits, u ∈ ℝ⁴
-profile = space.profile(u)                              # always inside the standard
+space = jc.design.DesignSpace.select(profile, {"seating_radius": (lo, hi), ...})  # any leaves
+profile = space.profile(u)                              # always inside the box
 peak = jc.design.soft_peak_force(scene, t1, temperature=50.0, dt=2e-6)
-objective = jc.design.ProfileObjective(space, build, t1=..., dt=...)
+noise = jc.design.observe(scene, t1, jc.observers.BandLevel.mesh_band(18, 0.2, 2.2))
+objective = jc.design.ProfileObjective(space, build, t1=..., dt=...)      # soft peak force
+objective = jc.design.ProfileObjective(space, build, t1=..., objective=band, combine="max")
 value, grad, members = objective.value_and_grad(u)
 """
 
 from ._design import (
     PARAMETERS as PARAMETERS,
     DesignSpace as DesignSpace,
+    Observed as Observed,
     PeakForce as PeakForce,
+    Penalized as Penalized,
     ProfileObjective as ProfileObjective,
+    observe as observe,
     soft_peak_force as soft_peak_force,
     window_weight as window_weight,
 )

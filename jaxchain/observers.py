@@ -2,12 +2,17 @@
 
 peak = jc.observers.PeakRecord(samples=4)     # each accepted step's top force, 5 samples
 soft = jc.observers.SoftPeak(t_start, rise, temperature, reference)   # integrated
+# windows in revolutions of a reference sprocket (the driver by default)
+lines = jc.observers.OrderSpectrum(range(64), 0.2, 2.2, signal="torque", sprocket=1, reference=0)
+band = jc.observers.BandLevel.mesh_band(18, 0.2, 2.2)   # largest line, 0.5-3.5 mesh orders [dB]
+chordal = jc.observers.SpeedVariation(0.2, 2.2, sprocket=1)
+sol = jc.simulate(scene, t1, observers=(lines, chordal)); sol.observed
 
 A step observer sees every accepted step (start and end states, the solver's dense
 interpolant); an integral observer adds an integrand that the solver integrates under its
-error control. ``simulate`` carries a :class:`PeakRecord`; the design objectives a
-:class:`SoftPeak`. New objectives computed inside the solve subclass one of the two
-abstract classes.
+error control. ``simulate`` carries a :class:`PeakRecord` (and any observers passed to
+it); the design objectives a :class:`SoftPeak` or the observer they are given. New
+objectives computed inside the solve subclass one of the two abstract classes.
 """
 
 from ._numerics import parabola_max as parabola_max
@@ -19,4 +24,12 @@ from ._observers import (
     PeakRecord as PeakRecord,
     SoftPeak as SoftPeak,
     window_weight as window_weight,
+)
+from ._orders import (
+    SIGNALS as SIGNALS,
+    BandLevel as BandLevel,
+    OrderSpectrum as OrderSpectrum,
+    SpeedVariation as SpeedVariation,
+    hann_window as hann_window,
+    level_db as level_db,
 )

@@ -3,6 +3,7 @@ argument checks, and the stretch of a chain under tension."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -18,6 +19,7 @@ __all__ = [
     "contact_slots",
     "check_profile",
     "stretch_of",
+    "worn",
 ]
 
 
@@ -108,3 +110,11 @@ def check_profile(chain: ChainSpec, profile: ToothProfile, what: str = "profile"
                 f"{want * 1e3:.4g} mm: build the profile for this chain, e.g. "
                 f"ToothProfile.iso606(chain, teeth, form)"
             )
+
+
+def worn(chain: ChainSpec, elongation: float) -> ChainSpec:
+    """``chain`` with its pitch worn longer by the fraction ``elongation`` (wear of the
+    pins and bushes lengthens every link; the rest of the chain is unchanged)."""
+    if elongation == 0.0:
+        return chain
+    return dataclasses.replace(chain, pitch=chain.pitch * (1.0 + elongation))

@@ -23,6 +23,7 @@ from .common import (
     contact_slots,
     disc_inertia,
     stretch_of,
+    worn,
 )
 from .layout import strand_layout
 from .statics import equilibrate
@@ -52,6 +53,7 @@ def engagement(
     settle: bool = True,
     link_damping: float = 0.05,
     span_stiffness: float | None = None,
+    elongation: float = 0.0,
 ) -> Scene:
     """The meshing-impact scene used for design: a driver sprocket turning counter-clockwise
     at ``speed_rpm`` draws an open chain strand in from a tight entry span (held at
@@ -66,9 +68,16 @@ def engagement(
     spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
     With ``settle`` (default) the strand starts from its static equilibrium on the held
     sprocket (:func:`~jaxchain.scenes.equilibrate`); False starts from the layout.
+
+    ``elongation`` is the chain's wear: its pitch is p·(1 + elongation) while the
+    sprocket stays cut for p (0–0.03; ISO 606 tooth forms tolerate about 0.03). A worn
+    chain rides higher in the gaps, the more so the further a roller is along the wrap.
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = as_chain(chain)
+    elongation = checks.real(
+        "elongation", elongation, lo=0.0, hi=0.03, unit="(fraction of the pitch; 0.01 = 1 % wear)"
+    )
     checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
     speed_rpm = check_common(
         speed_rpm=speed_rpm,
@@ -102,10 +111,12 @@ def engagement(
         raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
     if wrap is None:
         wrap = teeth // 2
+    sprocket_chain = chain  # the sprocket is cut for the unworn pitch
+    chain = worn(chain, elongation)
     if fidelity == "clearance" and (wrap + n_entry + n_exit) % 2:
         n_exit += 1  # the clearance strand needs an even roller count
     lay = strand_layout(
-        chain.pitch,
+        sprocket_chain.pitch,
         teeth,
         wrap=wrap,
         n_entry=n_entry,
@@ -159,18 +170,18 @@ def engagement(
         [0.0, 0.0],
         omega,
         angle0=lay.theta,
-        inertia=disc_inertia(chain, profile),
+        inertia=disc_inertia(sprocket_chain, profile),
         contact_slots=contact_slots(wrap, len(rollers)),
     )
     scene = assemble(
         bodies,
         sprockets=(sprocket,),
         anchors=anchors,
-        roller_contact=roller_contact or roller_law(chain, restitution),
+        roller_contact=roller_contact or roller_law(sprocket_chain, restitution),
         friction=friction,
         impact_speed=impact_speed,
         fidelity=fidelity,
-        tensile_strength=chain.tensile_strength,
+        tensile_strength=sprocket_chain.tensile_strength,
         # one entry roller meshes per tooth period: the strand runs out after n_entry
         horizon=n_entry * 2 * math.pi / (teeth * omega),
     )
