@@ -35,6 +35,14 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
     assert [h["iteration"] for h in hist] == [0, 1, 2]
     assert hist[0] == first  # resumed, not restarted
     saved = json.loads((out / "results.json").read_text())
+    summary = saved["summary"]
+    for key in ("objective", "unit", "baseline", "baseline_value", "optimized_value"):
+        assert key in summary
+    assert summary["unit"] == "N" and summary["remeasured"] is True
+    assert summary["improvement"] == pytest.approx(
+        1 - summary["optimized_value"] / summary["baseline_value"]
+    )
+    assert max(m["optimized_N"] for m in summary["members"]) == summary["optimized_value"]
     for key in (
         "settings",
         "versions",
