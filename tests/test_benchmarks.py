@@ -71,3 +71,14 @@ def test_geometry_benchmark_quick(tmp_path):
         if key == "iso":
             assert r["vf_ratio"] == 1.0
     assert (tmp_path / "geometry.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_gradient_cost_benchmark_quick(tmp_path):
+    from benchmarks.gradient_cost import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    assert [r["dimension"] for r in res["rows"]] == [4, 72]
+    for r in res["rows"]:
+        assert r["grad_finite"] and r["ratio"] > 1.0
+    assert (tmp_path / "gradient_cost.png").stat().st_size > 10_000

@@ -1,0 +1,169 @@
+"""Cost of a design gradient against the dimension of the design space.
+
+    python -m benchmarks.gradient_cost            # full study (~5 min on 2 cores)
+    python -m benchmarks.gradient_cost --quick    # smoke run (CI-sized)
+
+Writes ``benchmarks/results/gradient_cost.json`` and ``gradient_cost.png``. Reverse mode
+costs a small multiple of one forward solve whatever the number of parameters; a
+gradient-free method or finite differences pay per parameter. Measured here, in one run
+(machines are shared and noisy: compare ratios, not seconds):
+
+* the design objective of ``python -m optimize``'s scene (08B engagement, z = 18, 1000 rpm,
+  1000 N, design contact law, fixed steps of 4 µs over two tooth periods, soft peak over
+  the second) built for a free-form tooth and differentiated in design spaces of
+  4 (the ISO 606 box), 36 (per-gap seating radius and clockwise seat angle) and 72
+  coordinates (per-gap seating radius, both seat angles and seat offset);
+* for each: the wall time of the value alone and of value + gradient (the least of
+  ``repeats`` warm calls, the two interleaved; compile excluded), their ratio, and the compile times.
+
+A value+gradient then counts as ``ratio`` simulations when methods are compared on one
+simulation budget (issue "design that pays": the ratio should stay ≤ 4 and flat in the
+dimension).
+"""
+
+from __future__ import annotations
+
+import datetime
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+import jaxchain as jc  # noqa: E402
+from benchmarks._cli import finish, parse, parser  # noqa: E402
+from benchmarks.work_precision import machine_info  # noqa: E402
+from jaxchain.design import DesignSpace, ProfileObjective  # noqa: E402
+
+CHAIN = jc.ChainSpec.iso606("08B")
+Z, RPM = 18, 1000.0
+PERIOD = 60.0 / (Z * RPM)
+LAW = jc.scenes.roller_law(CHAIN, 0.7, width=3e-6)
+JOINTS = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
+
+
+def spaces() -> dict[str, DesignSpace]:
+    """The three design spaces (module docstring), named by their dimension."""
+    iso = jc.ToothProfile.iso606(CHAIN, Z, "mid")
+    tooth = jc.FreeformProfile.from_iso(iso, 1)
+    ri, a = float(iso.seating_radius), float(iso.seating_angle) / 2
+    ones = np.ones(Z)
+    radius = (ri - 20e-6 * ones, ri + 20e-6 * ones)
+    angle = ((a - 0.04) * ones, (a + 0.04) * ones)
+    return {
+        "4": DesignSpace.iso606(CHAIN, Z),
+        "36": DesignSpace.select(tooth, {"seating_radius": radius, "cw.seat_angle": angle}),
+        "72": DesignSpace.select(
+            tooth,
+            {
+                "seating_radius": radius,
+                "cw.seat_angle": angle,
+                "ccw.seat_angle": angle,
+                "seat_offset": (-20e-6 * ones, 20e-6 * ones),
+            },
+        ),
+    }
+
+
+def build(profile):
+    return jc.scenes.engagement(
+        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=3, roller_contact=LAW,
+        joint_friction=JOINTS,
+    )  # fmt: skip
+
+
+def _best(f, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        jax.block_until_ready(f())
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def measure(space: DesignSpace, repeats: int, seed: int = 0) -> dict:
+    obj = ProfileObjective(
+        space, build, t1=2 * PERIOD, t_start=PERIOD, temperature=20.0, reference=1500.0,
+        dt=4e-6,
+    )  # fmt: skip
+    u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
+    scenes = obj.scenes(u)
+    t = time.perf_counter()
+    jax.block_until_ready(obj.value_on(u, scenes)[0])
+    compile_value = time.perf_counter() - t
+    t = time.perf_counter()
+    jax.block_until_ready(obj.value_and_grad_on(u, scenes)[1])
+    compile_grad = time.perf_counter() - t
+    # interleaved, so both see the same load; the least of each
+    value_s, grad_s = np.inf, np.inf
+    for _ in range(repeats):
+        value_s = min(value_s, _best(lambda: obj.value_on(u, scenes)[0], 1))
+        grad_s = min(grad_s, _best(lambda: obj.value_and_grad_on(u, scenes)[1], 1))
+    value, grad, _ = obj.value_and_grad_on(u, scenes)
+    return {
+        "dimension": space.size,
+        "value_s": value_s,
+        "value_and_grad_s": grad_s,
+        "ratio": grad_s / value_s,
+        "first_value_s": compile_value,
+        "first_value_and_grad_s": compile_grad,
+        "objective_N": float(value),
+        "grad_norm": float(jnp.linalg.norm(grad)),
+        "grad_finite": bool(np.all(np.isfinite(np.asarray(grad)))),
+    }
+
+
+def chart(results: dict, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = results["rows"]
+    dims = [r["dimension"] for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(dims, [r["ratio"] for r in rows], "o-", color="tab:red", label="reverse mode")
+    ax.plot(dims, [d + 1 for d in dims], "--", color="0.5", label="forward differences (n + 1)")
+    ax.axhline(4, color="k", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("design coordinates")
+    ax.set_ylabel("cost of value + gradient / value")
+    ax.set_title("Gradient cost against dimension (08B engagement, fixed 4 µs steps)")
+    ax.legend()
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    args = parse(parser(__doc__), argv)
+    start = time.perf_counter()
+    repeats = 3 if args.quick else 9
+    picks = ("4", "72") if args.quick else ("4", "36", "72")
+    rows = []
+    for name, space in spaces().items():
+        if name not in picks:
+            continue
+        row = measure(space, repeats)
+        rows.append(row)
+        print(
+            f"dimension {row['dimension']:3d}: value {row['value_s']:.3f} s, value+grad "
+            f"{row['value_and_grad_s']:.3f} s, ratio {row['ratio']:.2f}",
+            flush=True,
+        )
+    results = {
+        "study": "gradient_cost",
+        "command": "python -m benchmarks.gradient_cost" + (" --quick" if args.quick else ""),
+        "date": datetime.date.today().isoformat(),
+        "machine": machine_info(),
+        "repeats": repeats,
+        "rows": rows,
+    }
+    return finish(results, args.out, "gradient_cost", chart, start)
+
+
+if __name__ == "__main__":
+    main()
