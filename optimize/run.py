@@ -107,9 +107,10 @@ def _state_from_json(template, leaves):
 _CHECKPOINT_KEYS = ("settings", "u", "opt_state", "history", "baselines", "evaluations", "timing")
 
 
-def load_checkpoint(out: Path, settings: Settings) -> dict | None:
+def load_checkpoint(out: Path, settings: Settings, size: int) -> dict | None:
     """The checkpoint in ``out`` (None if there is none); ``ValueError`` naming the file
-    when it is damaged, foreign, or from other settings."""
+    when it is damaged (``u`` must have the design space's ``size``), foreign, or from
+    other settings."""
     path = out / CHECKPOINT
     if not path.exists():
         return None
@@ -132,7 +133,7 @@ def load_checkpoint(out: Path, settings: Settings) -> dict | None:
             f"--resume: {path} holds non-numeric values in u or opt_state; {fix}"
         ) from None
     finite = np.all(np.isfinite(u)) and all(np.all(np.isfinite(v)) for v in leaves)
-    if u.shape != (4,) or not finite or not isinstance(ck["history"], list):
+    if u.shape != (size,) or not finite or not isinstance(ck["history"], list):
         raise ValueError(
             f"--resume: {path} is damaged (u of shape {u.shape}, finite: {bool(finite)}); {fix}"
         )
@@ -181,8 +182,9 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     t_wall = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    ck = load_checkpoint(out, settings) if resume else None  # before any work: a bad one
     problem = make_problem(settings)
+    # before any simulation: a bad checkpoint is refused at once
+    ck = load_checkpoint(out, settings, problem.space.size) if resume else None
     if resume and ck is None:
         log(f"--resume: no checkpoint in {out}; starting afresh", quiet)
     forms = iso_forms(problem)
@@ -198,15 +200,16 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         for form in ("min", "max", "mid"):
             m = remeasure(problem, forms[form])
             base[form] = {"params": profile_values(forms[form]), "peak_N": m["peak_N"]}
+            log(f"  ISO {form} form: worst peak {m['peak_N']:.0f} N", quiet)
         timing["baselines_s"] = time.perf_counter() - t
     # the best ISO 606 form measured (the mid form complies with the standard too)
     better = min(FORMS, key=lambda f: base[f]["peak_N"])
     reference = max(base[f]["peak_N"] for f in ("min", "max", "mid"))
     objective = problem.make_objective(reference)
 
-    # 2. the optax loop, from the middle of the ISO box (u = 0)
+    # 2. the optax loop, from the problem's start (the ISO box: its middle, u = 0)
     opt = getattr(optax, settings.optimizer)(settings.learning_rate)
-    u = jnp.zeros(4)
+    u = start_coordinates(problem)
     state = opt.init(u)
     history: list[dict] = []
     start = 0
@@ -258,7 +261,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
                     "objective_N": float(value),
                     "grad_norm_N": gnorm,
                     "u": np.asarray(u).tolist(),
-                    "params": profile_values(problem.space.profile(u)),
+                    "params": profile_values(problem.space.profile(u), problem.space),
                     "fraction": np.asarray(problem.space.fraction(u)).tolist(),
                     "seconds": dt,
                     "simulations": objective.evaluations,
@@ -311,7 +314,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
                 "members": [jsonable(r) for r in m["members"]],
             }
             if law == "johnson":
-                traces[name] = m["members"][0]
+                traces[name] = m["members"]
     for other in (f for f in FORMS if f != better):
         hertz_other = remeasure(problem, forms[other], law="hertz")["peak_N"]
         checks[f"iso_{other}"] = {
@@ -319,6 +322,9 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
             "johnson": {"peak_N": base[other]["peak_N"]},
         }
     timing["remeasure_s"] = time.perf_counter() - t
+    # force traces at the baseline's worst operating point, both designs
+    worst = int(np.argmax([r["peak_N"] for r in traces[f"iso_{better}"]]))
+    traces = {name: rows[worst] for name, rows in traces.items()}
 
     # against the best ISO form under each law (which form is best may differ per law)
     gain = {
@@ -332,8 +338,10 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "summary": run_summary(checks, better),
         "settings": settings.as_dict(),
         "versions": versions(),
+        "problem": settings.problem,
         "design_space": {
-            "parameters": list(jc.design.PARAMETERS),
+            "parameters": list(problem.space.names),
+            "shapes": [list(sh) for sh in problem.space.shapes],
             "lower": np.asarray(problem.space.lower).tolist(),
             "upper": np.asarray(problem.space.upper).tolist(),
         },
@@ -343,8 +351,8 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "baselines": base,
         "better_baseline": f"iso_{better}",
         "optimized": {
-            "params": profile_values(optimized),
-            "fraction_of_iso_range": np.asarray(problem.space.fraction(u_best)).tolist(),
+            "params": profile_values(optimized, problem.space),
+            "fraction_of_box": np.asarray(problem.space.fraction(u_best)).tolist(),
             "u": np.asarray(u_best).tolist(),
             "iteration": best["iteration"],
             "objective_N": best["objective_N"],
@@ -357,6 +365,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "timing": timing,
     }
     write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
+    optimized.to_dxf(out / "sprocket.dxf")
     figures(problem, out, forms, optimized, better, history, nm, traces)
     log(summary(results), quiet)
     return results
@@ -373,6 +382,7 @@ def run_summary(checks: dict, best_iso: str) -> dict:
         members.append(
             {
                 "speed_factor": row["speed_factor"],
+                "wear": row["wear"],
                 "optimized_N": row["peak_N"],
                 "baseline_N": base["johnson"]["members"][i]["peak_N"],
                 "optimized_second_law_N": opt["hertz"]["members"][i]["peak_N"],
@@ -393,6 +403,18 @@ def run_summary(checks: dict, best_iso: str) -> dict:
         },
         "members": members,
     }
+
+
+def start_coordinates(problem: Problem) -> jnp.ndarray:
+    """Where the optimizer starts: the ISO box's middle (u = 0), or the coordinates of
+    the problem's start design."""
+    if problem.settings.problem == "iso":
+        return jnp.zeros(problem.space.size)
+    return problem.space.coordinates(problem.start, margin=0.02)
+
+
+def _fmt(v) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
 
 
 def failures(members) -> list[str]:
@@ -423,10 +445,12 @@ def gradient_free(problem: Problem, target: float, budget: int, quiet: bool) -> 
 
     log(f"gradient-free baseline: Nelder–Mead, up to {budget} simulations ...", quiet)
     t = time.perf_counter()
-    simplex = np.vstack([np.zeros(4), np.eye(4)])
-    members = len(problem.settings.ensemble)  # simulations per objective evaluation
+    u0 = np.asarray(start_coordinates(problem))
+    n = u0.shape[0]
+    simplex = u0 + np.vstack([np.zeros(n), np.eye(n)])
+    members = len(problem.operating_points)  # simulations per objective evaluation
     options = {"maxfev": max(1, budget // members), "initial_simplex": simplex}
-    res = minimize(f, np.zeros(4), method="Nelder-Mead", options=options)
+    res = minimize(f, u0, method="Nelder-Mead", options=options)
     reached = next(((i + 1) * members for i, v in enumerate(trace) if v <= target), None)
     return {
         "method": "Nelder-Mead (scipy), simplex of unit steps in u",
@@ -448,7 +472,7 @@ def summary(r: dict) -> str:
         "ISO 606 baselines (sharp peak, re-measured): "
         + ", ".join(f"{f} form {r['baselines'][f]['peak_N']:.0f} N" for f in ("min", "max", "mid")),
         f"optimized (iteration {r['optimized']['iteration']}): "
-        + ", ".join(f"{k} {v:.6g}" for k, v in r["optimized"]["params"].items()),
+        + ", ".join(f"{k} {_fmt(v)}" for k, v in r["optimized"]["params"].items()),
     ]
     isos = [k for k in r["remeasured"] if k.startswith("iso_")]
     for law in ("johnson", "hertz"):
@@ -478,26 +502,15 @@ def figures(problem, out, forms, optimized, better, history, nm, traces) -> None
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    # profile before/after on the ISO limits
+    # profile before/after against the ISO 606 band
     fig, ax = plt.subplots(figsize=(6, 6))
-    for form, style in [("min", ":"), ("max", "--")]:
-        xy = forms[form].outline(n=80)
-        ax.plot(xy[:, 0] * 1e3, xy[:, 1] * 1e3, "k" + style, lw=1, label=f"ISO 606 {form} form")
-    xy = forms[better].outline(n=80)
-    ax.plot(
-        xy[:, 0] * 1e3, xy[:, 1] * 1e3, color="tab:blue", lw=1.5, label=f"baseline (ISO {better})"
+    jc.plot_profiles(
+        problem.chain,
+        problem.settings.teeth,
+        extra={f"baseline (ISO {better})": forms[better], "optimized": optimized},
+        ax=ax,
     )
-    xy = optimized.outline(n=80)
-    ax.plot(xy[:, 0] * 1e3, xy[:, 1] * 1e3, color="tab:red", lw=2, label="optimized")
-    c = np.asarray(optimized.geometry().seat_centre) * 1e3
-    r = float(optimized.roller_radius) * 1e3
-    th = np.linspace(0, 2 * np.pi, 100)
-    ax.plot(c[0] + r * np.cos(th), c[1] + r * np.sin(th), color="0.6", lw=1, label="roller")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [mm] (sprocket frame)")
-    ax.set_ylabel("y [mm]")
-    ax.set_title("Tooth gap: optimized vs ISO 606 limits")
-    ax.legend(fontsize=8)
+    ax.set_title("Tooth gap: optimized against the ISO 606 band")
     save_figure(fig, out / "profile.png")
     plt.close(fig)
 
@@ -514,7 +527,11 @@ def figures(problem, out, forms, optimized, better, history, nm, traces) -> None
         )
     ax.set_xlabel("time [ms]")
     ax.set_ylabel("largest roller/tooth force [N]")
-    ax.set_title("Re-measured (Dopri8, tight tolerance) in the objective's window")
+    tr = traces["optimized"]
+    ax.set_title(
+        f"Re-measured (Dopri8, tight tolerance) at the baseline's worst operating point\n"
+        f"(speed ×{tr['speed_factor']:g}, wear {100 * tr['wear']:g} %)"
+    )
     ax.legend()
     save_figure(fig, out / "forces.png")
     plt.close(fig)
@@ -538,7 +555,7 @@ def figures(problem, out, forms, optimized, better, history, nm, traces) -> None
             label="Nelder–Mead, best so far",
         )
     ax.set_xlabel("simulations")
-    ax.set_ylabel("smooth peak force [N]")
+    ax.set_ylabel("objective: smooth peak force [N]")
     ax.set_title("Objective history")
     ax.legend()
     save_figure(fig, out / "objective.png")

@@ -3,6 +3,8 @@ results folder, survives an interrupt (--resume loses no iteration), rejects bad
 
 import json
 
+import jax.numpy as jnp
+import numpy as np
 import pytest
 
 import jaxchain as jc
@@ -58,10 +60,10 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
         assert key in saved
     for name in ("profile.png", "forces.png", "objective.png"):
         assert (out / name).stat().st_size > 10_000
-    # the optimized design is inside the ISO 606 box
-    lim = jc.iso606_limits(jc.ChainSpec.iso606("08B"), 18)
-    for name, value in saved["optimized"]["params"].items():
-        assert lim[name][0] <= value <= lim[name][1]
+    # the optimized design is inside its box, written as DXF arcs
+    assert all(0 < f < 1 for f in saved["optimized"]["fraction_of_box"])
+    assert saved["problem"] == "gentle" and len(saved["optimized"]["u"]) == 7
+    assert (out / "sprocket.dxf").stat().st_size > 10_000
     # re-measured with both laws, sharp peaks of physical size
     for design in saved["remeasured"].values():
         for law in ("johnson", "hertz"):
@@ -71,6 +73,25 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
     # a resume with other physics is refused with the differing settings named
     with pytest.raises(SystemExit, match="speed_rpm"):
         main(["--fast", "--quiet", "--out", str(out), "--resume", "--speed", "900"])
+
+
+def test_problems_and_their_starts():
+    """--problem iso designs in the ISO 606 box from its middle; the default (gentle)
+    from the ISO minimum form's seat and flanks in a 7-coordinate free-form box."""
+    from optimize.problem import make_problem
+    from optimize.run import start_coordinates
+
+    s, _ = parse(["--problem", "iso", "--fast"])
+    iso = make_problem(s)
+    assert iso.space.names == jc.design.PARAMETERS
+    assert float(jnp.abs(start_coordinates(iso)).max()) == 0.0
+    g = make_problem(parse(["--fast"])[0])
+    assert g.space.size == 7 and g.settings.wear == (0.0,)
+    u0 = start_coordinates(g)
+    assert np.all(np.abs(np.asarray(u0)) < 4)  # inside the box, off its bounds
+    full = parse([])[0]
+    assert full.ensemble == (0.5, 1.0, 1.5) and full.wear == (0.0, 0.02)
+    assert parse(["--scene", "drive"])[0].wear == (0.0,)
 
 
 def test_bad_options_are_explained():
@@ -127,7 +148,7 @@ def test_fast_keeps_the_options_given():
     s, _ = parse(["--fast", "--periods", "3", "--iterations", "5", "--ensemble", "0.9,1.1"])
     assert (s.periods, s.iterations, s.ensemble, s.baseline_budget) == (3, 5, (0.9, 1.1), 4)
     s, _ = parse([])
-    assert (s.periods, s.iterations, s.ensemble) == (2, 25, (0.9, 1.0, 1.1))
+    assert (s.periods, s.iterations, s.ensemble) == (2, 25, (0.5, 1.0, 1.5))
 
 
 def test_an_optimizer_must_be_an_optax_optimizer():
