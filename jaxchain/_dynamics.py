@@ -17,6 +17,7 @@ from jaxtyping import Array, Float
 from ._gap import gap_contact, gap_shapes
 from ._numerics import cross2, safe_norm, safe_normalize, smooth_ramp
 from ._scene import ClearanceJoints, JointFriction, LinkSprings, Scene
+from ._shoe import shoe_contacts
 
 __all__ = [
     "DriveState",
@@ -33,12 +34,16 @@ __all__ = [
 
 
 class DriveState(NamedTuple):
-    """ODE state. q, v: (N, 3) bodies' (x, y, φ) and rates; theta, omega: (S,) sprockets."""
+    """ODE state. q, v: (N, 3) bodies' (x, y, φ) and rates; theta, omega: (S,) sprockets;
+    arm, arm_rate: (A,) tensioner arm angles [rad] and rates [rad/s] (None without
+    tensioners)."""
 
     q: Float[Array, "N 3"]
     v: Float[Array, "N 3"]
     theta: Float[Array, " S"]
     omega: Float[Array, " S"]
+    arm: Float[Array, " A"] | None = None
+    arm_rate: Float[Array, " A"] | None = None
 
 
 class Forces(NamedTuple):
@@ -49,6 +54,9 @@ class Forces(NamedTuple):
     sprocket_torque: Float[Array, " S"]  # torque of the chain on each sprocket [N·m]
     sprocket_force: Float[Array, "S 2"]  # force of the chain on each sprocket's axis [N]
     element_tension: Float[Array, " E"]  # tensions of tension-carrying elements [N]
+    shoe_normal: Float[Array, " R"] | None = None  # roller/shoe normal force per roller [N]
+    shoe_force: Float[Array, "K 2"] | None = None  # force of the chain on each shoe [N]
+    arm_torque: Float[Array, " A"] | None = None  # torque of the chain on each arm [N·m]
 
 
 def _check_scene(scene, caller: str) -> None:
@@ -74,6 +82,17 @@ def _check_state(y, scene, caller: str) -> None:
         )
     n, ns = scene.n_bodies, len(scene.sprockets)
     want = {"q": (n, 3), "v": (n, 3), "theta": (ns,), "omega": (ns,)}
+    na = 0 if scene.tensioners is None else scene.tensioners.count
+    if na:
+        want.update(arm=(na,), arm_rate=(na,))
+    for name in ("arm", "arm_rate"):
+        if not na and getattr(y, name) is not None:
+            raise ValueError(f"{caller}: y.{name} must be None for a scene without tensioners")
+        if na and getattr(y, name) is None:
+            raise ValueError(
+                f"{caller}: y.{name} must have shape ({na},) for this scene ({na} tensioner "
+                "arms), got None; start from jc.initial_state(scene)"
+            )
     for name, shape in want.items():
         got = np.shape(getattr(y, name))
         if got != shape:
@@ -89,11 +108,14 @@ def initial_state(scene: Scene) -> DriveState:
     """The state the scene starts from (its bodies' q0, v0; the sprockets' angle0 and
     speed): what :func:`vector_field` takes as ``y`` at t0."""
     _check_scene(scene, "initial_state")
+    tn = scene.tensioners
     return DriveState(
         q=scene.q0,
         v=scene.v0,
         theta=jnp.stack([s.angle0 for s in scene.sprockets]),
         omega=jnp.stack([s.speed for s in scene.sprockets]),
+        arm=None if tn is None else tn.angle0,
+        arm_rate=None if tn is None else tn.rate0,
     )
 
 
@@ -319,6 +341,11 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
 
     rc = roller_contacts(y, scene, cs)
     total = total + _scatter(n, scene.roller_body, rc.arm, rc.force)
+    shoe = None
+    if scene.shoes is not None:
+        xr, vr, _ = _points(q, v, scene.roller_body, scene.roller_offset, cs)
+        shoe = shoe_contacts(y, scene, xr, vr, scene.roller_radius)
+        total = total + _scatter(n, scene.roller_body, rc.arm, shoe.force)
     total = total.at[:, :2].add(scene.mass[:, None] * scene.gravity)
     return Forces(
         body=total,
@@ -326,6 +353,9 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         sprocket_torque=rc.sprocket_torque,
         sprocket_force=rc.sprocket_force,
         element_tension=element_tension,
+        shoe_normal=None if shoe is None else shoe.normal,
+        shoe_force=None if shoe is None else shoe.resultant,
+        arm_torque=None if scene.tensioners is None else shoe.arm_torque,
     )
 
 
@@ -347,14 +377,25 @@ def rates(t, y: DriveState, scene: Scene, fr: Forces) -> DriveState:
         else:  # driver: prescribed constant speed
             dtheta.append(spr.speed)
             domega.append(jnp.zeros_like(spr.speed))
-    return DriveState(q=y.v, v=acc, theta=jnp.stack(dtheta), omega=jnp.stack(domega))
+    tn = scene.tensioners
+    if tn is None:
+        return DriveState(q=y.v, v=acc, theta=jnp.stack(dtheta), omega=jnp.stack(domega))
+    arm_acc = (fr.arm_torque + tn.spring_torque(y.arm, y.arm_rate)) / tn.inertia
+    return DriveState(
+        q=y.v,
+        v=acc,
+        theta=jnp.stack(dtheta),
+        omega=jnp.stack(domega),
+        arm=y.arm_rate,
+        arm_rate=arm_acc,
+    )
 
 
 def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
     """Named quantities at one instant (what ``simulate`` saves)."""
     fr = forces(t, y, scene)
     xr, vr, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
-    return {
+    out = {
         "roller_position": xr,
         "roller_velocity": vr,
         "roller_sprocket_force": jnp.sum(fr.roller_normal, axis=0),
@@ -363,6 +404,16 @@ def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
         "sprocket_angle": y.theta,
         "sprocket_torque": fr.sprocket_torque,
     }
+    if scene.shoes is not None:
+        na = scene.shoes.n_tensioners
+        magnitude = safe_norm(fr.shoe_force)
+        out["roller_shoe_force"] = fr.shoe_normal
+        out["guide_force"] = magnitude[na:]
+        if na:
+            out["tensioner_angle"] = y.arm
+            out["tensioner_force"] = magnitude[:na]
+            out["tensioner_torque"] = scene.tensioners.spring_torque(y.arm, y.arm_rate)
+    return out
 
 
 def _potential(law, depth, n_nodes: int = 24):
@@ -376,8 +427,10 @@ def _potential(law, depth, n_nodes: int = 24):
 
 
 def energy(t, y: DriveState, scene: Scene) -> dict[str, Array]:
-    """Mechanical energy [J]: kinetic (chain bodies and driven sprockets), elastic (link
-    springs, joint contacts, roller/tooth contacts) and the anchors' guide springs."""
+    """Mechanical energy [J]: kinetic (chain bodies, driven sprockets, tensioner arms),
+    elastic (link springs, joint contacts, roller/tooth and roller/shoe contacts,
+    tensioner springs) and gravity's (−Σ m·g·x of the chain bodies, 0 without gravity).
+    The anchors' guide springs are not included."""
     del t
     _check_state(y, scene, "energy")
     inertia = jnp.stack([scene.mass, scene.mass, scene.inertia], -1)
@@ -402,4 +455,14 @@ def energy(t, y: DriveState, scene: Scene) -> dict[str, Array]:
         local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
         depth, _ = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
         elastic = elastic + jnp.sum(_potential(scene.roller_law, depth))
-    return {"kinetic": kinetic, "elastic": elastic}
+    tn = scene.tensioners
+    if tn is not None:
+        kinetic = kinetic + 0.5 * jnp.sum(tn.inertia * y.arm_rate**2)
+        phi = tn.sense * (y.arm - tn.layout_angle)
+        elastic = elastic + jnp.sum(0.5 * tn.stiffness * phi**2 - tn.preload * phi)
+    if scene.shoes is not None:
+        _, vr, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
+        sc = shoe_contacts(y, scene, xr, vr, scene.roller_radius)
+        elastic = elastic + jnp.sum(_potential(scene.shoes.law, sc.depth) * sc.gate)
+    weight = -jnp.sum(scene.mass[:, None] * scene.gravity * y.q[:, :2])
+    return {"kinetic": kinetic, "elastic": elastic, "gravity": weight}

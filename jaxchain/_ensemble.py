@@ -147,6 +147,9 @@ class EnsembleSolution(eqx.Module):
         groups: the member indices of each group, in the order run (static).
         batch_sizes: each group's padded batch size (static).
         n_devices: devices the member axis was split across (static).
+        roller_shoe_force, tensioner_angle, tensioner_force, tensioner_torque,
+        guide_force: as in :class:`~jaxchain.Solution`, member axis first (None for
+            scenes without shoes or tensioners).
     """
 
     ts: Float[Array, " T"]
@@ -169,6 +172,11 @@ class EnsembleSolution(eqx.Module):
     groups: tuple[tuple[int, ...], ...] = eqx.field(static=True)
     batch_sizes: tuple[int, ...] = eqx.field(static=True)
     n_devices: int = eqx.field(static=True)
+    roller_shoe_force: Float[Array, "M T R"] | None = None
+    tensioner_angle: Float[Array, "M T A"] | None = None
+    tensioner_force: Float[Array, "M T A"] | None = None
+    tensioner_torque: Float[Array, "M T A"] | None = None
+    guide_force: Float[Array, "M T G"] | None = None
 
     @property
     def n_members(self) -> int:

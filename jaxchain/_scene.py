@@ -27,6 +27,8 @@ __all__ = [
     "PairGroup",
     "JointFriction",
     "Anchors",
+    "Tensioners",
+    "Shoes",
     "Scene",
 ]
 
@@ -235,6 +237,91 @@ class Anchors(eqx.Module):
     damping: Float[Array, " A"]
 
 
+class Tensioners(eqx.Module):
+    """Pivoting tensioner arms: rigid arms turning about fixed pivots, each pressed onto
+    the chain by a preloaded torsional spring with a linear (hydraulic-style) damper.
+
+    The arm's angle ψ is part of the ODE state (``DriveState.arm``). Its rotation toward
+    the chain is φ = s·(ψ − ψ_ref) (s = ``sense``, ψ_ref = ``layout_angle``), and the
+    spring and damper turn it toward the chain by τ = preload − stiffness·φ −
+    damping·φ̇ [N·m]. Its shoe is the matching entry of the scene's :class:`Shoes`.
+
+    Attributes:
+        pivot: (A, 2) pivot positions [m], world frame.
+        layout_angle: (A,) the reference angle ψ_ref [rad]: world angle of the line from
+            the pivot to the shoe's middle where the shoe geometry is given.
+        angle0: (A,) the arm angle at t = 0 [rad] (same convention as ``layout_angle``).
+        rate0: (A,) the arm's angular rate at t = 0 [rad/s].
+        inertia: (A,) polar moment of inertia about the pivot [kg·m²], > 0.
+        stiffness: (A,) torsional spring rate [N·m/rad], ≥ 0.
+        damping: (A,) damper rate [N·m·s/rad], ≥ 0.
+        preload: (A,) spring torque toward the chain at ψ_ref [N·m].
+        sense: (A,) +1 if a counter-clockwise turn moves the shoe toward the chain, −1 if
+            a clockwise one does.
+    """
+
+    pivot: Float[Array, "A 2"]
+    layout_angle: Float[Array, " A"]
+    angle0: Float[Array, " A"]
+    rate0: Float[Array, " A"]
+    inertia: Float[Array, " A"]
+    stiffness: Float[Array, " A"]
+    damping: Float[Array, " A"]
+    preload: Float[Array, " A"]
+    sense: Float[Array, " A"]
+
+    @property
+    def count(self) -> int:
+        return int(np.shape(self.pivot)[0])
+
+    def spring_torque(self, angle, rate):
+        """(A,) torque of spring and damper on each arm [N·m], world sense."""
+        phi = self.sense * (angle - self.layout_angle)
+        press = self.preload - self.stiffness * phi - self.damping * self.sense * rate
+        return self.sense * press
+
+
+class Shoes(eqx.Module):
+    """Shoes the chain slides on: tensioner shoes (the first ``n_tensioners``, shoe k on
+    arm k, turning with it about its pivot) then fixed guides.
+
+    Each shoe's working surface is a circular arc of curvature κ (a straight line for κ =
+    0), given at the layout (arm at ``Tensioners.layout_angle``) by its middle point, the
+    unit normal there (pointing from the shoe to the chain) and its half length along
+    the surface. A roller of radius r whose centre lies at distance g from the surface
+    (on the chain side) overlaps it by δ = r − g and is pushed by ``law`` along the
+    surface normal, with ``friction`` against its sliding along the surface. The force
+    is faded out smoothly (C¹) over ``edge`` [m] at the shoe's ends, and over a roller
+    radius for centres deeper than two roller radii behind the surface (the shoe's back:
+    no roller reaches it).
+
+    Attributes:
+        mid: (K, 2) middle point of the surface [m], world frame at the layout.
+        normal: (K, 2) unit surface normal at the middle, toward the chain.
+        curvature: (K,) κ [1/m], ≥ 0 (convex toward the chain; 0: straight).
+        half_length: (K,) half the surface's length [m], measured along it.
+        edge: (K,) fade-out length at the ends [m].
+        law: normal contact law of roller and shoe (every shoe).
+        friction: roller/shoe friction, its fields (K,) (one per shoe), or None.
+        n_tensioners: how many of the shoes ride on tensioner arms (static).
+        slots: rollers checked per shoe, the nearest to its middle; None: all (static).
+    """
+
+    mid: Float[Array, "K 2"]
+    normal: Float[Array, "K 2"]
+    curvature: Float[Array, " K"]
+    half_length: Float[Array, " K"]
+    edge: Float[Array, " K"]
+    law: AbstractContactLaw
+    friction: CoulombFriction | None
+    n_tensioners: int = eqx.field(static=True)
+    slots: int | None = eqx.field(static=True)
+
+    @property
+    def count(self) -> int:
+        return int(np.shape(self.mid)[0])
+
+
 class Scene(eqx.Module):
     """Everything the vector field needs. Built by :mod:`jaxchain.scenes`.
 
@@ -261,6 +348,8 @@ class Scene(eqx.Module):
             tension beyond it is reported as ``chain_overloaded``.
         fidelity: "lumped" or "clearance" (static).
         gravity: (2,) [m/s²].
+        tensioners: tensioner arms, or None.
+        shoes: tensioner shoes and fixed guides, or None.
     """
 
     mass: Float[Array, " N"]
@@ -281,6 +370,8 @@ class Scene(eqx.Module):
     horizon: Float[Array, ""]
     tensile_strength: Float[Array, ""]
     fidelity: str = eqx.field(static=True)
+    tensioners: Tensioners | None = None
+    shoes: Shoes | None = None
 
     @property
     def n_bodies(self) -> int:

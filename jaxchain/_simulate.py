@@ -34,6 +34,16 @@ class Solution(eqx.Module):
         stats: solver statistics (num_steps, num_accepted_steps, num_rejected_steps, …).
         y1: the state at t1 (a :class:`~jaxchain.DriveState`).
         observed: the value of each observer passed to :func:`simulate`, in order.
+        roller_shoe_force: (T, R) roller/shoe normal force, summed over the tensioner
+            shoes and guides [N]; None for a scene without shoes.
+        tensioner_angle: (T, A) each tensioner arm's angle [rad], world frame (of the line
+            from its pivot to its shoe's middle, counter-clockwise from +x); None
+            without tensioners.
+        tensioner_force: (T, A) magnitude of the chain's force on each tensioner shoe [N].
+        tensioner_torque: (T, A) torque of each tensioner's spring and damper on its arm
+            [N·m] (counter-clockwise positive).
+        guide_force: (T, G) magnitude of the chain's force on each guide [N]; None
+            without shoes.
     """
 
     ts: Float[Array, " T"]
@@ -49,6 +59,11 @@ class Solution(eqx.Module):
     stats: dict
     y1: object
     observed: tuple = ()
+    roller_shoe_force: Float[Array, "T R"] | None = None
+    tensioner_angle: Float[Array, "T A"] | None = None
+    tensioner_force: Float[Array, "T A"] | None = None
+    tensioner_torque: Float[Array, "T A"] | None = None
+    guide_force: Float[Array, "T G"] | None = None
 
     @property
     def ok(self) -> bool:

@@ -21,4 +21,11 @@ from ._scenes.layout import (
     transport_velocity as transport_velocity,
 )
 from ._scenes.loop import loop_layout as loop_layout
+from ._scenes.shoes import (
+    POLYAMIDE as POLYAMIDE,
+    SHOE_FRICTION as SHOE_FRICTION,
+    Guide as Guide,
+    Tensioner as Tensioner,
+    shoe_law as shoe_law,
+)
 from ._scenes.statics import equilibrate as equilibrate, resettle as resettle

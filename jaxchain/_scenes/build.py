@@ -32,7 +32,9 @@ from .._scene import (
     LinkSprings,
     PairGroup,
     Scene,
+    Shoes,
     Sprocket,
+    Tensioners,
 )
 
 __all__ = [
@@ -337,8 +339,12 @@ def assemble(
     fidelity: str,
     tensile_strength: float,
     horizon: float = math.inf,
+    gravity=None,
+    tensioners: Tensioners | None = None,
+    shoes: Shoes | None = None,
 ) -> Scene:
-    """A :class:`Scene` from chain bodies, sprockets and boundary conditions."""
+    """A :class:`Scene` from chain bodies, sprockets and boundary conditions; ``gravity``:
+    (2,) [m/s²] (None: none)."""
     return Scene(
         mass=jnp.asarray(bodies.mass),
         inertia=jnp.asarray(bodies.inertia),
@@ -354,8 +360,10 @@ def assemble(
         q0=jnp.asarray(bodies.q0),
         v0=jnp.asarray(bodies.v0),
         link_weights=jnp.asarray(bodies.link_weights),
-        gravity=jnp.zeros(2),
+        gravity=jnp.zeros(2) if gravity is None else jnp.asarray(gravity, dtype=float),
         horizon=jnp.asarray(horizon, dtype=float),
         tensile_strength=jnp.asarray(tensile_strength, dtype=float),
         fidelity=fidelity,
+        tensioners=tensioners,
+        shoes=shoes,
     )

@@ -20,6 +20,7 @@ __all__ = [
     "check_profile",
     "stretch_of",
     "worn",
+    "as_gravity",
 ]
 
 
@@ -118,3 +119,21 @@ def worn(chain: ChainSpec, elongation: float) -> ChainSpec:
     if elongation == 0.0:
         return chain
     return dataclasses.replace(chain, pitch=chain.pitch * (1.0 + elongation))
+
+
+def as_gravity(gravity) -> np.ndarray | None:
+    """``gravity`` checked: None (none), a scalar g [m/s²] ≥ 0 pointing along −y, or a
+    vector (gx, gy) [m/s²]; returns None or (2,)."""
+    if gravity is None:
+        return None
+    g = np.asarray(gravity, dtype=float) if not isinstance(gravity, (str, bytes)) else None
+    if g is None or g.shape not in ((), (2,)) or not np.all(np.isfinite(g)):
+        raise ValueError(
+            f"gravity must be None, a scalar g >= 0 m/s² (pointing along −y) or a finite "
+            f"vector (gx, gy) [m/s²], got {gravity!r}"
+        )
+    if g.shape == ():
+        if g < 0:
+            raise ValueError(f"gravity as a scalar must be >= 0 m/s² (along −y), got {float(g)}")
+        return np.array([0.0, -float(g)])
+    return g

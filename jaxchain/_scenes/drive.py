@@ -18,6 +18,7 @@ from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import JOINT_FRICTION, assemble, chain_bodies, roller_law
 from .common import (
+    as_gravity,
     check_below_strength,
     check_common,
     check_profile,
@@ -27,6 +28,7 @@ from .common import (
 )
 from .layout import closed_drive_layout, transport_velocity
 from .loop_drive import loop_drive
+from .shoes import Guide, Tensioner
 from .statics import equilibrate
 
 __all__ = ["drive"]
@@ -57,6 +59,10 @@ def drive(
     roller_contact: AbstractContactLaw | None = None,
     settle: bool = True,
     link_damping: float = 0.05,
+    tensioner: Tensioner | None = None,
+    guides: Sequence[Guide] = (),
+    gravity: float | Sequence[float] | None = None,
+    shoe_contact: AbstractContactLaw | None = None,
 ) -> Scene:
     """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
     ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``; or,
@@ -84,6 +90,15 @@ def drive(
     count nearest the belt length), and while the scene settles it is pushed along that
     bisector so that its two spans carry 2·pretension between them; the other axes stay
     where given. Every sprocket k starts at ±ω1·z1/zk.
+
+    A ``tensioner`` (:class:`~jaxchain.scenes.Tensioner`, a sprung arm with a shoe)
+    presses on one span from the chain's back and sets the tension: its span carries
+    ``pretension`` at rest, and no sprocket moves (no take-up). The layout wraps the chain
+    round the shoe, pushed in by ``Tensioner.deflection``; the loop closes by moving the
+    shoe along the bisector of its spans, and the settled start turns the arm until its
+    spring balances the chain. ``guides`` (:class:`~jaxchain.scenes.Guide`) are fixed
+    shoes along spans. Both work with two sprockets and no ``centres`` too (the driven
+    axis at (``centre_distance``, 0), default 40 pitches).
 
     Args:
         chain: an ISO 606 designation or a :class:`ChainSpec`.
@@ -121,6 +136,13 @@ def drive(
         settle: start from the static equilibrium of the layout (see
             :func:`~jaxchain.scenes.equilibrate`); False starts from the raw layout with
             the load ramped in (default True).
+        tensioner: a :class:`~jaxchain.scenes.Tensioner` on one span, or None.
+        guides: fixed :class:`~jaxchain.scenes.Guide` shoes, each on a span (not the
+            tensioner's).
+        gravity: None (none, the default), g [m/s²] ≥ 0 along −y, or (gx, gy) [m/s²]; the
+            settled start then hangs the chain under its weight.
+        shoe_contact: roller/shoe normal law of every tensioner shoe and guide (default
+            :func:`~jaxchain.scenes.shoe_law`: polyamide face).
     """
     chain = as_chain(chain)
     speed_rpm = check_common(
@@ -136,6 +158,30 @@ def drive(
         settle=settle,
         link_damping=link_damping,
     )
+    gravity = as_gravity(gravity)
+    if shoe_contact is not None:
+        checks.instance(
+            "shoe_contact", shoe_contact, AbstractContactLaw,
+            "a normal contact law (jc.contact.Flores, ...) or None",
+        )  # fmt: skip
+    if tensioner is not None and not isinstance(tensioner, Tensioner):
+        raise TypeError(f"tensioner must be a jc.scenes.Tensioner or None, got {tensioner!r}")
+    with_shoes = {
+        "tensioner": tensioner,
+        "guides": guides,
+        "gravity": gravity,
+        "shoe_contact": shoe_contact,
+    }
+    if centres is None and (tensioner is not None or (guides is not None and len(guides))):
+        if n_links is not None and centre_distance is None:
+            raise ValueError(
+                "a two-sprocket drive with a tensioner or guides needs centre_distance (the "
+                "sprockets stay where given; n_links sets how far the tensioner pushes)"
+            )
+        z = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
+        c = 40 * chain.pitch if centre_distance is None else centre_distance
+        c = checks.real("centre_distance", c, lo=0.0, lo_open=True, unit="m")
+        centres, centre_distance, teeth = ((0.0, 0.0), (c, 0.0)), None, tuple(z)
     if centres is not None:
         if centre_distance is not None:
             raise ValueError(
@@ -165,6 +211,7 @@ def drive(
             roller_contact=roller_contact,
             settle=settle,
             link_damping=link_damping,
+            **with_shoes,
         )
     given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
     for name, value in given.items():
@@ -285,5 +332,6 @@ def drive(
         impact_speed=impact_speed,
         fidelity=fidelity,
         tensile_strength=chain.tensile_strength,
+        gravity=gravity,
     )
     return equilibrate(scene, take_up=2 * pretension) if settle else scene

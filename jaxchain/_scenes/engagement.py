@@ -17,6 +17,7 @@ from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import JOINT_FRICTION, assemble, chain_bodies, link_stiffness, roller_law
 from .common import (
+    as_gravity,
     check_below_strength,
     check_common,
     check_profile,
@@ -54,6 +55,7 @@ def engagement(
     link_damping: float = 0.05,
     span_stiffness: float | None = None,
     elongation: float = 0.0,
+    gravity: float | tuple[float, float] | None = None,
 ) -> Scene:
     """The meshing-impact scene used for design: a driver sprocket turning counter-clockwise
     at ``speed_rpm`` draws an open chain strand in from a tight entry span (held at
@@ -72,9 +74,11 @@ def engagement(
     ``elongation`` is the chain's wear: its pitch is p·(1 + elongation) while the
     sprocket stays cut for p (0–0.03; ISO 606 tooth forms tolerate about 0.03). A worn
     chain rides higher in the gaps, the more so the further a roller is along the wrap.
+    ``gravity``: None (none, the default), g [m/s²] ≥ 0 along −y, or (gx, gy) [m/s²].
     Other arguments as in :func:`~jaxchain.scenes.drive`.
     """
     chain = as_chain(chain)
+    gravity = as_gravity(gravity)
     elongation = checks.real(
         "elongation", elongation, lo=0.0, hi=0.03, unit="(fraction of the pitch; 0.01 = 1 % wear)"
     )
@@ -184,5 +188,6 @@ def engagement(
         tensile_strength=sprocket_chain.tensile_strength,
         # one entry roller meshes per tooth period: the strand runs out after n_entry
         horizon=n_entry * 2 * math.pi / (teeth * omega),
+        gravity=gravity,
     )
     return equilibrate(scene) if settle else scene

@@ -23,8 +23,19 @@ from .common import (
     disc_inertia,
     stretch_of,
 )
-from .layout import transport_velocity
-from .loop import _as_centres, loop_layout
+from .layout import _pitch_radius, transport_velocity
+from .loop import _as_centres, _as_outside, _Circles, loop_layout
+from .shoes import (
+    Guide,
+    Tensioner,
+    assemble_shoes,
+    idler_centre,
+    place_guide,
+    place_tensioner,
+    shoe_law,
+    shoe_teeth,
+    span_ends,
+)
 from .statics import equilibrate
 
 __all__ = ["loop_drive", "span_tensions"]
@@ -81,6 +92,10 @@ def loop_drive(
     roller_contact: AbstractContactLaw | None,
     settle: bool,
     link_damping: float,
+    tensioner: Tensioner | None = None,
+    guides: Sequence[Guide] = (),
+    gravity=None,
+    shoe_contact: AbstractContactLaw | None = None,
 ) -> Scene:
     """The drive over N sprockets (see :func:`~jaxchain.scenes.drive`)."""
     if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
@@ -106,9 +121,23 @@ def loop_drive(
     if tuple(p.teeth for p in profiles) != teeth:
         raise ValueError(f"profiles have {tuple(p.teeth for p in profiles)} teeth, teeth={teeth}")
     radii = [float(p.pitch_radius) for p in profiles]
-    m = n - 1 if take_up_sprocket is None else take_up_sprocket
-    m = checks.integer("take_up_sprocket", m, lo=1, hi=n - 1)
-    tension = span_tensions(loads, radii, pretension, m)
+    guides = _as_guides(guides, n, tensioner)
+    if tensioner is not None:
+        if take_up_sprocket is not None:
+            raise ValueError(
+                "take_up_sprocket: a drive with a tensioner needs no take-up sprocket (the "
+                "tensioner sets the tension and the sprockets stay where given); give one "
+                "or the other"
+            )
+        jt = checks.integer("Tensioner.span", tensioner.span, lo=0, hi=n - 1)
+        pretension = checks.real("pretension", pretension, lo=0.0, lo_open=True, unit="N")
+        # the tensioner's span carries the pretension; each driven sprocket takes load/R
+        steps = np.concatenate([[0.0], np.cumsum(np.asarray(loads[1:]) / np.asarray(radii[1:]))])
+        tension = pretension + steps - steps[jt]
+    else:
+        m = n - 1 if take_up_sprocket is None else take_up_sprocket
+        m = checks.integer("take_up_sprocket", m, lo=1, hi=n - 1)
+        tension = span_tensions(loads, radii, pretension, m)
     check_below_strength(
         chain,
         "the tight span's static tension",
@@ -117,27 +146,61 @@ def loop_drive(
     )
     if settle and tension.min() < 0:
         need = pretension - float(tension.min())
+        where = (
+            f"the tensioner's span {tensioner.span} carries the pretension"
+            if tensioner is not None
+            else f"the take-up sprocket {m}'s spans share 2·pretension = {2 * pretension:.4g} N"
+        )
         raise ValueError(
-            f"no static equilibrium: the take-up sprocket {m}'s spans share 2·pretension = "
-            f"{2 * pretension:.4g} N, and the loads (Σ load_k/R_k = "
+            f"no static equilibrium: {where}, and the loads (Σ load_k/R_k = "
             f"{float(tension[-1] - tension[0]):.4g} N between the tight and the slack span) "
             f"would leave span {int(np.argmin(tension))} pushing with "
             f"{-float(tension.min()):.4g} N; use pretension >= {need:.4g} N, a smaller "
-            "load_torque, a take-up on the slack side (take_up_sprocket=1), or settle=False "
-            "(start from the layout, load ramped in)"
+            "load_torque, a take-up on the slack side (take_up_sprocket=1, or the tensioner "
+            "on span 0), or settle=False (start from the layout, load ramped in)"
         )
     stretch = stretch_of(chain, fidelity, pretension)
-    lay = loop_layout(
-        chain.pitch,
-        teeth,
-        centres,
-        outside,
-        n_links=n_links,
-        link_pitch=chain.pitch + stretch,
-        take_up_sprocket=m,
-        tip_radii=[float(p.tip_diameter) / 2 for p in profiles],
-        roller_radius=chain.roller_diameter / 2,
-    )
+    lp = chain.pitch + stretch
+    r_roller = chain.roller_diameter / 2
+    tips = [float(p.tip_diameter) / 2 for p in profiles]
+    real = list(range(n))  # index of each sprocket in the layout
+    lay_teeth, lay_centres, lay_outside = teeth, centres, outside
+    if tensioner is not None:
+        # the shoe laid out as an idler on the chain's back, inserted after sprocket jt
+        sense = np.array([-1 if k in _as_outside(outside, n) else 1 for k in range(n)])
+        circ = _Circles(centres, np.array([_pitch_radius(lp, z) for z in teeth]), sense)
+        if not circ.ok:
+            raise ValueError("centres: two consecutive sprockets have no common tangent")
+        z_v = shoe_teeth(tensioner, lp, r_roller)
+        r_v = _pitch_radius(lp, z_v)
+        c_v, span_length = idler_centre(tensioner, circ.t_out[jt], circ.t_in[(jt + 1) % n], r_v)
+        iv = jt + 1
+        real = [k if k <= jt else k + 1 for k in range(n)]
+        lay_teeth = (*teeth[:iv], z_v, *teeth[iv:])
+        lay_centres = np.insert(centres, iv, c_v, axis=0)
+        lay_outside = (*[real[k] for k in _as_outside(outside, n)], iv)
+        tips = [*tips[:iv], r_v - r_roller, *tips[iv:]]
+        m = iv
+    try:
+        lay = loop_layout(
+            chain.pitch,
+            lay_teeth,
+            lay_centres,
+            lay_outside,
+            n_links=n_links,
+            link_pitch=lp,
+            take_up_sprocket=m,
+            tip_radii=tips,
+            roller_radius=r_roller,
+        )
+    except ValueError as err:
+        if tensioner is None:
+            raise
+        raise ValueError(
+            f"with the tensioner's shoe laid out as idler {iv} on the chain's back (the "
+            f"sprockets after it numbered one up): {err}; a larger Tensioner.deflection "
+            "wraps the chain further round the shoe"
+        ) from None
     if driven_inertia is None:
         inertias = tuple(disc_inertia(chain, p) for p in profiles)
     else:
@@ -161,18 +224,29 @@ def loop_drive(
     sprockets = tuple(
         Sprocket(
             profiles[k],
-            lay.centres[k],
-            omega1 * teeth[0] / teeth[k] * int(lay.sense[k]),
+            lay.centres[real[k]],
+            omega1 * teeth[0] / teeth[k] * int(lay.sense[real[k]]),
             inertia=inertias[k],
-            load_torque=loads[k] * int(lay.sense[k]),  # opposes the sprocket's own turning
-            angle0=lay.theta[k],
+            # the load opposes the sprocket's own turning
+            load_torque=loads[k] * int(lay.sense[real[k]]),
+            angle0=lay.theta[real[k]],
             load_ramp=load_ramp if k else 0.0,
             driven=k > 0,
-            contact_slots=contact_slots(lay.wrap[k], lay.n_links),
-            take_up_vector=lay.take_up_vector if k == m else np.zeros(2),
+            contact_slots=contact_slots(lay.wrap[real[k]], lay.n_links),
+            take_up_vector=(lay.take_up_vector if k == m and tensioner is None else np.zeros(2)),
         )
         for k in range(n)
     )
+    arms, placed = None, []
+    if tensioner is not None:
+        arms, shoe = place_tensioner(tensioner, lay, iv, span_length, float(tension[jt]), chain)
+        placed.append(shoe)
+    for g in guides:
+        placed.append(place_guide(g, *span_ends(lay, real[g.span]), chain))
+    shoes = None
+    if placed:
+        law = shoe_contact or shoe_law(chain, restitution)
+        shoes = assemble_shoes(placed, 0 if arms is None else 1, law, lp, lay.n_links)
     scene = assemble(
         bodies,
         sprockets=sprockets,
@@ -182,5 +256,28 @@ def loop_drive(
         impact_speed=impact_speed,
         fidelity=fidelity,
         tensile_strength=chain.tensile_strength,
+        gravity=gravity,
+        tensioners=arms,
+        shoes=shoes,
     )
-    return equilibrate(scene, take_up=2 * pretension) if settle else scene
+    if not settle:
+        return scene
+    return equilibrate(scene, take_up=0.0 if tensioner is not None else 2 * pretension)
+
+
+def _as_guides(guides, n: int, tensioner) -> tuple[Guide, ...]:
+    """``guides`` checked: a sequence of :class:`Guide` on spans in [0, N − 1], none on the
+    tensioner's span."""
+    if isinstance(guides, Guide):
+        guides = (guides,)
+    if not isinstance(guides, Sequence) or not all(isinstance(g, Guide) for g in guides):
+        raise TypeError(f"guides must be a sequence of jc.scenes.Guide, got {guides!r}")
+    for g in guides:
+        checks.integer("Guide.span", g.span, lo=0, hi=n - 1)
+        if tensioner is not None and g.span == tensioner.span:
+            raise ValueError(
+                f"Guide.span={g.span} is the tensioner's span: put the guide on another span"
+            )
+    if tensioner is not None and not isinstance(tensioner, Tensioner):
+        raise TypeError(f"tensioner must be a jc.scenes.Tensioner or None, got {tensioner!r}")
+    return tuple(guides)

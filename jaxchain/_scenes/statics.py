@@ -48,16 +48,26 @@ __all__ = ["equilibrate", "resettle"]
 def _unpack(scene, x, pitch):
     """Scene and state for the unknowns x: body displacements (pitches; angles in
     pitch/1 m rad), then per sprocket an angle change and an axis shift along its take-up
-    direction (pitches)."""
+    direction (pitches), then per tensioner arm an angle change (pitch/1 m rad)."""
     n, ns = scene.n_bodies, len(scene.sprockets)
     q = scene.q0 + x[: 3 * n].reshape(n, 3) * pitch
     theta = jnp.stack([s.angle0 for s in scene.sprockets]) + x[3 * n : 3 * n + ns] * pitch
-    shift = x[3 * n + ns :] * pitch
+    shift = x[3 * n + ns : 3 * n + 2 * ns] * pitch
     dirs, _ = _take_up(scene)
     centres = [s.centre + shift[k] * dirs[k] for k, s in enumerate(scene.sprockets)]
     scene = eqx.tree_at(lambda sc: [s.centre for s in sc.sprockets], scene, centres)
-    y = DriveState(q=q, v=jnp.zeros_like(q), theta=theta, omega=jnp.zeros_like(theta))
+    arm = rate = None
+    if scene.tensioners is not None:
+        arm = scene.tensioners.angle0 + x[3 * n + 2 * ns :] * pitch
+        rate = jnp.zeros_like(arm)
+    y = DriveState(
+        q=q, v=jnp.zeros_like(q), theta=theta, omega=jnp.zeros_like(theta), arm=arm, arm_rate=rate
+    )
     return scene, y
+
+
+def _n_arms(scene) -> int:
+    return 0 if scene.tensioners is None else scene.tensioners.count
 
 
 def _axis_dir(scene, k):
@@ -106,10 +116,21 @@ def _residual(x, args):
     )
     dirs, _ = _take_up(scene)
     pull = jnp.sum(fr.sprocket_force * dirs, -1) + take_up
-    axis = jnp.where(take_up > 0, pull / force_scale, pin[3 * n + ns :])
+    axis = jnp.where(take_up > 0, pull / force_scale, pin[3 * n + ns : 3 * n + 2 * ns])
+    parts = [res.reshape(-1), moment, axis]
+    if sc.tensioners is not None:  # each arm: the chain's moment against its spring
+        spring = sc.tensioners.spring_torque(y.arm, y.arm_rate)
+        parts.append((fr.arm_torque + spring) / (force_scale * pitch))
     # a vanishing spring (reg, scaled units) to the start: a roller floating in its bush's
     # free play has no force anywhere in it, which would make the problem rank-deficient
-    return jnp.concatenate([res.reshape(-1), moment, axis]) - reg * (x - x_pin)
+    return jnp.concatenate(parts) - reg * (x - x_pin)
+
+
+def _arm_force(scene):
+    """(A,) each tensioner's preload over the distance from its pivot to its shoe [N]."""
+    tn, sh = scene.tensioners, scene.shoes
+    lever = jnp.sqrt(jnp.sum((sh.mid[: tn.count] - tn.pivot) ** 2, -1))
+    return jnp.abs(tn.preload) / lever
 
 
 def _rotating_bodies(scene: Scene) -> jax.Array:
@@ -144,7 +165,7 @@ def _free_unknowns(scene, free, take_up):
     sprocket angles where ``free``; axes under a take-up."""
     rot = _rotating_bodies(scene)
     body = jnp.stack([jnp.ones_like(rot), jnp.ones_like(rot), rot], -1).reshape(-1)
-    return jnp.concatenate([body, free, take_up > 0])
+    return jnp.concatenate([body, free, take_up > 0, jnp.ones(_n_arms(scene), bool)])
 
 
 def _accelerations(scene, pitch, force_scale):
@@ -154,7 +175,10 @@ def _accelerations(scene, pitch, force_scale):
     body = jnp.stack([force_scale / (m * pitch), force_scale / (m * pitch), force_scale / j], -1)
     spr_j = jnp.stack([s.inertia for s in scene.sprockets])
     spr_m = jnp.stack([2 * s.inertia / s.profile.pitch_radius**2 for s in scene.sprockets])
-    return jnp.concatenate([body.reshape(-1), force_scale / spr_j, force_scale / (spr_m * pitch)])
+    arm = [] if scene.tensioners is None else [force_scale / scene.tensioners.inertia]
+    return jnp.concatenate(
+        [body.reshape(-1), force_scale / spr_j, force_scale / (spr_m * pitch), *arm]
+    )
 
 
 @eqx.filter_jit
@@ -181,6 +205,8 @@ def _stable_step(scene: Scene, force: float) -> float:
     included)."""
     force = jnp.asarray(force, float)
     ks = [_tangent_stiffness(scene.roller_law, force)]
+    if scene.shoes is not None:
+        ks.append(_tangent_stiffness(scene.shoes.law, force))
     for g in scene.pairs:
         el = g.element
         ks.append(
@@ -283,9 +309,11 @@ def equilibrate(
         force_scale = max(force_scale, float(jnp.max(scene.anchors.tension)))
     for s in scene.sprockets:
         force_scale = max(force_scale, float(s.load_torque / s.profile.pitch_radius))
+    if scene.tensioners is not None:
+        force_scale = max(force_scale, float(jnp.max(_arm_force(scene))))
     fs = jnp.asarray(force_scale)
     n = scene.n_bodies
-    x0 = jnp.zeros(3 * n + 2 * ns)
+    x0 = jnp.zeros(3 * n + 2 * ns + _n_arms(scene))
     tol = tolerance * force_scale
     dt = _stable_step(scene, 4 * force_scale)
     for _ in range(4):  # an unstable step is halved
@@ -300,7 +328,7 @@ def equilibrate(
     if not (bool(stable) and float(worst) <= tol):
         x, _, worst = _solve(scene, fs, max_steps, x if bool(stable) else x0, driven, push)
     moved = float(jnp.max(jnp.abs(x[: 3 * n].reshape(n, 3)[:, :2]))) if n else 0.0
-    shifted = float(jnp.max(jnp.abs(x[3 * n + ns :])))
+    shifted = float(jnp.max(jnp.abs(x[3 * n + ns : 3 * n + 2 * ns])))
     if not (float(worst) <= tol and max(moved, shifted) < 1.0):  # settles by < a pitch
         warnings.warn(
             f"static equilibrium of the initial configuration not found (largest force "
@@ -324,6 +352,8 @@ def _finish(scene: Scene, x) -> Scene:
             lambda sc: sc.anchors.origin, settled, an.origin + along[:, None] * an.direction
         )
     settled = eqx.tree_at(lambda sc: sc.q0, settled, y.q)
+    if settled.tensioners is not None:
+        settled = eqx.tree_at(lambda sc: sc.tensioners.angle0, settled, y.arm)
     for k in range(ns):
         settled = eqx.tree_at(lambda sc, k=k: sc.sprockets[k].angle0, settled, y.theta[k])
     return settled
@@ -360,8 +390,10 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
     if scene.anchors is not None:
         scale.append(jnp.max(scene.anchors.tension))
     scale += [s.load_torque / s.profile.pitch_radius for s in scene.sprockets]
+    if scene.tensioners is not None:
+        scale.append(jnp.max(_arm_force(scene)))
     fs = jax.lax.stop_gradient(jnp.max(jnp.stack([jnp.asarray(v, float) for v in scale])))
-    x0 = jnp.zeros(3 * n + 2 * ns, dtype=scene.q0.dtype)
+    x0 = jnp.zeros(3 * n + 2 * ns + _n_arms(scene), dtype=scene.q0.dtype)
     args = (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
     r = _residual(x0, args)
     # the vanishing spring keeps bodies floating in free play (zero rows) from making the
