@@ -278,6 +278,7 @@ class _Snapshot:
             self.centres.append(centre)
             self.sprocket_patches.append(patch)
 
+        self.shoes = _ShoeArtists(scene, sol, ax)
         (self.chain_line,) = ax.plot([], [], "-", color="0.3", lw=1.0, zorder=2, label="chain")
         d = 2e3 * float(scene.roller_radius)
         n_r = self.pos.shape[1]
@@ -332,13 +333,84 @@ class _Snapshot:
         if self.values is not None:
             self.rollers.set_array(self._colors(i))
         self.title.set_text(f"Drive at t = {self.ts[i] * 1e3:.2f} ms")
-        return [*self.sprocket_patches, self.chain_line, self.rollers, self.title]
+        moved = self.shoes.update(i)
+        return [*self.sprocket_patches, *moved, self.chain_line, self.rollers, self.title]
 
     def limits(self, frames) -> None:
         """Fix the view on the sprockets and the rollers of ``frames`` (with a margin)."""
         xlim, ylim = _extent(self.outlines, self.centres, self.pos[list(frames)], self.radius_mm)
         self.ax.set_xlim(*xlim)
         self.ax.set_ylim(*ylim)
+
+
+def shoe_outline(mid, normal, curvature, half_length, thickness, n: int = 41):
+    """(2n, 2) closed outline of a shoe [m]: its face (an arc of ``curvature``, or a
+    straight line, ``half_length`` each side of ``mid``) and its back ``thickness``
+    behind it, at the layout."""
+    mid, normal = np.asarray(mid, float), np.asarray(normal, float)
+    t = np.array([normal[1], -normal[0]])
+    s = np.linspace(-half_length, half_length, n)
+    if curvature > 0:
+        radius = 1.0 / curvature
+        centre = mid - normal * radius
+        a = s * curvature
+        ray = np.cos(a)[:, None] * normal + np.sin(a)[:, None] * t
+        face, back = centre + radius * ray, centre + (radius - thickness) * ray
+    else:
+        face = mid + s[:, None] * t
+        back = face - thickness * normal
+    return np.concatenate([face, back[::-1]])
+
+
+class _ShoeArtists:
+    """Tensioner shoes (turning with their arms, pivot and arm drawn) and guides."""
+
+    def __init__(self, scene: Scene, sol: Solution, ax):
+        import matplotlib.patches as mpatches
+
+        self.patches, self.outlines, self.arms = [], [], []
+        sh = scene.shoes
+        if sh is None:
+            return
+        thick = 3.0 * float(scene.roller_radius)
+        na = sh.n_tensioners
+        self.angle = None
+        if na:
+            tn = scene.tensioners
+            self.pivot = np.asarray(tn.pivot, float)
+            self.ref = np.asarray(tn.layout_angle, float)
+            self.angle = np.asarray(sol.tensioner_angle, float)
+        for k in range(sh.count):
+            outline = shoe_outline(
+                sh.mid[k], sh.normal[k], float(sh.curvature[k]), float(sh.half_length[k]), thick
+            )
+            tensioner = k < na
+            patch = mpatches.Polygon(
+                outline * 1e3,
+                closed=True,
+                fc="#f2c48a" if tensioner else "#a9c4de",
+                ec="0.25",
+                lw=0.8,
+                zorder=1,
+                label="tensioner shoe" if tensioner else "guide",
+            )
+            ax.add_patch(patch)
+            self.patches.append(patch)
+            self.outlines.append(outline)
+            if tensioner:
+                (arm,) = ax.plot([], [], "-o", color="#b8742a", lw=2.0, ms=4, zorder=1)
+                ax.plot(*(self.pivot[k] * 1e3), "o", color="0.2", ms=5, zorder=1)
+                self.arms.append(arm)
+
+    def update(self, i: int) -> list:
+        for k, arm in enumerate(self.arms):
+            turn = float(self.angle[i, k] - self.ref[k])
+            pivot = self.pivot[k]
+            moved = _rotate(self.outlines[k] - pivot, turn) + pivot
+            self.patches[k].set_xy(moved * 1e3)
+            mid = moved[len(moved) // 4]
+            arm.set_data([pivot[0] * 1e3, mid[0] * 1e3], [pivot[1] * 1e3, mid[1] * 1e3])
+        return [*self.patches, *self.arms]
 
 
 def _extent(outlines, centres, pos, radius_mm):

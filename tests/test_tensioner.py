@@ -73,10 +73,15 @@ def test_tensioner_statics(tensioned):
     assert float(jnp.linalg.norm(fr.shoe_force[1])) < 1.0
 
 
-def test_tensioner_solve_outputs(tensioned):
+@pytest.fixture(scope="module")
+def short_solve(tensioned):
+    return jc.simulate(tensioned, 2e-3, n_save=5, rtol=1e-4)
+
+
+def test_tensioner_solve_outputs(tensioned, short_solve):
     """A short solve reports arm angle, shoe force, spring torque and guide force; the
     start is the settled state."""
-    sol = jc.simulate(tensioned, 2e-3, n_save=5, rtol=1e-4)
+    sol = short_solve
     assert sol.tensioner_angle.shape == (5, 1)
     assert sol.tensioner_force.shape == (5, 1) and sol.tensioner_torque.shape == (5, 1)
     assert sol.guide_force.shape == (5, 1)
@@ -84,6 +89,19 @@ def test_tensioner_solve_outputs(tensioned):
     np.testing.assert_allclose(sol.tensioner_angle[0], tensioned.tensioners.angle0)
     assert np.all(np.isfinite(np.asarray(sol.tensioner_force)))
     assert 50.0 < float(sol.tensioner_force[0, 0]) < 120.0
+
+
+def test_snapshot_draws_shoes(tensioned, short_solve):
+    """plot_snapshot draws the tensioner's shoe (turned with its arm) and the guide."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = jc.plot_snapshot(tensioned, short_solve)
+    labels = [p.get_label() for p in ax.patches]
+    assert labels.count("tensioner shoe") == 1 and labels.count("guide") == 1
+    plt.close(ax.figure)
 
 
 def test_shoe_contact_against_its_law(tensioned):
