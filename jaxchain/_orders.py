@@ -137,6 +137,19 @@ def _orders_array(owner: str, orders) -> Array:
     return jnp.asarray(a)
 
 
+def _set_order_fields(obs, orders, start, end, signal, sprocket, reference) -> None:
+    """Check and set the fields every order observer has (``obs`` under construction)."""
+    owner = type(obs).__name__
+    obs.orders = _orders_array(owner, orders)
+    _check_window(owner, start, end)
+    obs.start = jnp.asarray(start, dtype=float)
+    obs.end = jnp.asarray(end, dtype=float)
+    obs.signal = checks.choice(f"{owner}.signal", signal, SIGNALS)
+    obs.sprocket = _check_sprocket(owner, "sprocket", sprocket)
+    ref = sprocket if reference is None else reference
+    obs.reference = _check_sprocket(owner, "reference", ref)
+
+
 class OrderSpectrum(_AbstractOrders):
     """Amplitudes of chosen rotation orders of a drive signal [signal units] (Hann window
     over revolutions [start, end] of the reference; see the module docstring for the
@@ -172,14 +185,7 @@ class OrderSpectrum(_AbstractOrders):
         sprocket: int = 0,
         reference: int | None = None,
     ):
-        self.orders = _orders_array("OrderSpectrum", orders)
-        _check_window("OrderSpectrum", start, end)
-        self.start = jnp.asarray(start, dtype=float)
-        self.end = jnp.asarray(end, dtype=float)
-        self.signal = checks.choice("OrderSpectrum.signal", signal, SIGNALS)
-        self.sprocket = _check_sprocket("OrderSpectrum", "sprocket", sprocket)
-        ref = sprocket if reference is None else reference
-        self.reference = _check_sprocket("OrderSpectrum", "reference", ref)
+        _set_order_fields(self, orders, start, end, signal, sprocket, reference)
 
     def value(self, state, t0, t1):
         return self.amplitudes(state)
@@ -226,22 +232,15 @@ class BandLevel(_AbstractOrders):
         sprocket: int = 0,
         reference: int | None = None,
     ):
-        self.orders = _orders_array("BandLevel", orders)
-        _check_window("BandLevel", start, end)
+        _set_order_fields(self, orders, start, end, signal, sprocket, reference)
         if is_concrete(temperature, level_reference):
             checks.real("BandLevel.temperature", temperature, lo=0.0, lo_open=True, unit="dB")
             checks.real(
                 "BandLevel.level_reference", level_reference, lo=0.0, lo_open=True,
                 unit="(signal units)",
             )  # fmt: skip
-        self.start = jnp.asarray(start, dtype=float)
-        self.end = jnp.asarray(end, dtype=float)
         self.temperature = jnp.asarray(temperature, dtype=float)
         self.level_reference = jnp.asarray(level_reference, dtype=float)
-        self.signal = checks.choice("BandLevel.signal", signal, SIGNALS)
-        self.sprocket = _check_sprocket("BandLevel", "sprocket", sprocket)
-        ref = sprocket if reference is None else reference
-        self.reference = _check_sprocket("BandLevel", "reference", ref)
 
     @classmethod
     def mesh_band(

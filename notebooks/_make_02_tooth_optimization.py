@@ -2,8 +2,8 @@
 
     .venv/bin/python notebooks/_make_02_tooth_optimization.py
 
-The notebook shows, step by step, what ``python -m optimize`` runs: the ISO 606 design
-space, the smooth peak-force objective and its gradient, an optax loop (two iterations on
+The notebook shows, step by step, what ``python -m optimize --problem iso`` runs: the
+ISO 606 design space, the smooth peak-force objective and its gradient, an optax loop (two iterations on
 one operating point with ``JAXCHAIN_FAST=1``, as the test suite sets it) and an independent
 re-measurement of the result. This script writes it without outputs;
 
@@ -25,7 +25,9 @@ The tooth-gap parameters (seating radius, seating angle, flank radius, tip diame
 are reshaped inside the ISO 606 limits to lower the peak roller/tooth contact force
 of a chain meshing with the sprocket. Gradients come from reverse-mode
 differentiation through the diffrax solve (and through the static equilibrium the
-scene starts from). This is what `python -m optimize` runs; here each step is shown.
+scene starts from). This is what `python -m optimize --problem iso` runs; here each step
+is shown. (The main job's default problem designs a free-form asymmetric tooth over a
+band of speeds and chain wear, the same way.)
 
 `JAXCHAIN_FAST=1` (set by the test suite) runs two iterations on one operating point."""
     ),

@@ -60,9 +60,9 @@ class Settings:
     joint_slip: float = 2e-2  # joint friction's creep speed in the optimized model [m/s]
     ensemble: tuple[float, ...] = (0.5, 1.0, 1.5)  # speed factors of the operating points
     wear: tuple[float, ...] = (0.0, 0.02)  # chain elongations of the operating points
-    iterations: int = 25
+    iterations: int = 40
     optimizer: str = "adam"
-    learning_rate: float = 0.3
+    learning_rate: float = 0.12
     baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
     remeasure_rtol: float = 1e-9
 
