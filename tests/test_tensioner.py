@@ -251,8 +251,9 @@ def test_tensioner_holds_the_mean_tension():
     """The issue's 10A 13/26 drive (600 rpm, 30 N·m, 300 N) over 5 revolutions: with a
     tensioner on the slack span instead of a take-up, each revolution's mean link tension
     stays within 10 % of the settled value. Measured (2-core CPU): per-revolution means
-    434–436 N against 425 N settled (+2.6 %); instantaneous mean 294–587 N. The fixed
-    centres' drive: 252 N settled, per-revolution means in the report of the test run."""
+    434–436 N against 425 N settled (+2.6 %); instantaneous mean 294–587 N. The same
+    drive on fixed centres (take-up): 252 N settled, per-revolution means 446, 426, 409,
+    399, 391 N (+77 % to +55 %), instantaneous mean 252–622 N."""
     pitch = jc.ChainSpec.iso606("10A").pitch
     ten = jc.scenes.drive(
         "10A", centre_distance=30 * pitch, tensioner=jc.scenes.Tensioner(span=0), **SWING
