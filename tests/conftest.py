@@ -36,6 +36,9 @@ FIRST = (
     "test_engagement.py",
     "test_ensembles.py",
     "test_clearance.py",
+    "test_orders.py",
+    "test_multi_drive.py",
+    "test_tensioner.py",
     "test_failures.py",
     "test_gap.py",
 )
