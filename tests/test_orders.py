@@ -80,9 +80,9 @@ def test_speed_variation_matches_a_quadrature_of_the_saved_speed():
     drive = jc.scenes.drive(
         CHAIN, teeth=(12, 24), n_links=40, speed_rpm=RPM, load_torque=10.0, pretension=200.0
     )
-    start, end = 0.1, 0.6  # driver revolutions
-    t1 = 0.62 * REV
-    ts = np.linspace(0.0, t1, 20001)
+    start, end = 0.1, 0.4  # driver revolutions
+    t1 = 0.42 * REV
+    ts = np.linspace(0.0, t1, 12001)
     chordal = SpeedVariation(start, end, sprocket=1)
     torque = OrderSpectrum([0.0, 12.0], start, end, signal="torque", sprocket=1, reference=0)
     bearing = OrderSpectrum([0.0, 12.0], start, end, signal="bearing", sprocket=1, reference=0)
@@ -92,7 +92,7 @@ def test_speed_variation_matches_a_quadrature_of_the_saved_speed():
     w = hann(np.abs(angle - float(drive.sprockets[0].angle0)) / (2 * np.pi), start, end)
     mean = np.trapezoid(w * speed, ts) / np.trapezoid(w, ts)
     rms = math.sqrt(np.trapezoid(w * (speed - mean) ** 2, ts) / np.trapezoid(w, ts))
-    # measured: 0.0100635 both, relative difference 7e-8
+    # measured: 0.0101577 both, relative difference 1.8e-8
     assert abs(float(sol.observed[0]) - rms / mean) < 1e-4 * rms / mean
     assert 1e-3 < rms / mean < 0.05  # chordal action of a 12-tooth driver: about 1 %
     # the driven sprocket carries its load on average (quasi-steady)
