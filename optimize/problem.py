@@ -54,7 +54,7 @@ class Settings:
     fidelity: str = "lumped"
     periods: int = 2  # simulated tooth periods of the designed sprocket
     warmup: int = 1  # periods before the objective's window opens
-    temperature: float = 0.02  # soft-max temperature, fraction of the reference peak
+    temperature: float = 0.007  # soft-max temperature, fraction of the reference peak
     dt: float = 4e-6  # fixed step of the optimized solve [s]
     contact_width: float = 3e-6  # roller/tooth onset regularization of the optimized model [m]
     joint_slip: float = 2e-2  # joint friction's creep speed in the optimized model [m/s]
@@ -62,7 +62,7 @@ class Settings:
     wear: tuple[float, ...] = (0.0, 0.02)  # chain elongations of the operating points
     iterations: int = 40
     optimizer: str = "adam"
-    learning_rate: float = 0.12
+    learning_rate: float = 0.25
     baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
     remeasure_rtol: float = 1e-9
 
