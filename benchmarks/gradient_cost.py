@@ -14,7 +14,8 @@ gradient-free method or finite differences pay per parameter. Measured here, in 
   4 (the ISO 606 box), 36 (per-gap seating radius and clockwise seat angle) and 72
   coordinates (per-gap seating radius, both seat angles and seat offset);
 * for each: the wall time of the value alone and of value + gradient (the least of
-  ``repeats`` warm calls, the two interleaved; compile excluded), their ratio, and the compile times.
+  ``repeats`` warm calls, the two interleaved; compile excluded), their ratio, and the
+  compile times.
 
 A value+gradient then counts as ``ratio`` simulations when methods are compared on one
 simulation budget (issue "design that pays": the ratio should stay ≤ 4 and flat in the
