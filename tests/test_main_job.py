@@ -13,6 +13,9 @@ from optimize.__main__ import main, parse
 
 
 def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
+    """The whole job on the ISO problem (its compiled objective is the design tests'),
+    interrupted and resumed; the default problem's own pieces are checked below and its
+    whole run in the slow test."""
     out = tmp_path / "run"
     real = ProfileObjective.value_and_grad
     calls = []
@@ -25,14 +28,14 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
 
     monkeypatch.setattr(ProfileObjective, "value_and_grad", interrupted)
     with pytest.raises(SystemExit) as e:
-        main(["--fast", "--quiet", "--out", str(out)])
+        main(["--problem", "iso", "--fast", "--quiet", "--out", str(out)])
     assert e.value.code == 130
     ck = json.loads((out / "checkpoint.json").read_text())
     assert len(ck["history"]) == 1  # the finished iteration was kept
     first = ck["history"][0]
     monkeypatch.setattr(ProfileObjective, "value_and_grad", real)
 
-    res = main(["--fast", "--quiet", "--out", str(out), "--resume"])
+    res = main(["--problem", "iso", "--fast", "--quiet", "--out", str(out), "--resume"])
     hist = res["history"]
     assert [h["iteration"] for h in hist] == [0, 1, 2]
     assert hist[0] == first  # resumed, not restarted
@@ -62,17 +65,30 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
         assert (out / name).stat().st_size > 10_000
     # the optimized design is inside its box, written as DXF arcs
     assert all(0 < f < 1 for f in saved["optimized"]["fraction_of_box"])
-    assert saved["problem"] == "gentle" and len(saved["optimized"]["u"]) == 7
+    assert saved["problem"] == "iso" and len(saved["optimized"]["u"]) == 4
     assert (out / "sprocket.dxf").stat().st_size > 10_000
     # re-measured with both laws, sharp peaks of physical size
     for design in saved["remeasured"].values():
         for law in ("johnson", "hertz"):
             assert 100 < design[law]["peak_N"] < 20_000
     assert saved["timing"]["grad_over_forward"] > 1.0
+    assert 100 < saved["gradient_free"]["remeasured"]["hertz"] < 20_000
 
     # a resume with other physics is refused with the differing settings named
     with pytest.raises(SystemExit, match="speed_rpm"):
-        main(["--fast", "--quiet", "--out", str(out), "--resume", "--speed", "900"])
+        main(["--problem", "iso", "--fast", "--quiet", "--out", str(out), "--resume",
+              "--speed", "900"])  # fmt: skip
+
+
+@pytest.mark.slow
+def test_default_problem_runs_end_to_end(tmp_path):
+    """The default (gentle) problem in fast mode: a free-form design of 7 coordinates,
+    re-measured, written with its summary, figures and DXF."""
+    res = main(["--fast", "--quiet", "--out", str(tmp_path)])
+    assert res["problem"] == "gentle" and len(res["optimized"]["u"]) == 7
+    assert res["summary"]["remeasured"] is True
+    for name in ("profile.png", "forces.png", "objective.png", "sprocket.dxf"):
+        assert (tmp_path / name).stat().st_size > 10_000
 
 
 def test_problems_and_their_starts():
