@@ -5,6 +5,7 @@ constrained (penalized) form, member combination, no retrace."""
 
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -73,6 +74,30 @@ def test_order_lines_match_a_quadrature_of_the_saved_torque():
     assert quad.max() - 1e-3 <= level <= quad.max() + 0.5 * math.log(quad.size) + 1e-3
 
 
+def test_speed_variation_of_a_sinusoidal_speed_is_its_rms():
+    """SpeedVariation's integrand and value on a prescribed speed ω = ω0·(1 + a·sin(nφ)),
+    φ the reference's angle: the Hann-weighted RMS about the mean over whole periods is
+    a/√2 of the mean (closed form), whatever the speed it starts from."""
+    from types import SimpleNamespace
+
+    w0, a, n = 100.0, 0.01, 9.0
+    obs = SpeedVariation(0.1, 2.1, sprocket=1, reference=0)
+    t = np.linspace(0.0, 2.2 * 2 * np.pi / w0, 200_001)
+    phi = w0 * t
+    omega = w0 * (1 + a * np.sin(n * phi))
+    scene = SimpleNamespace(
+        sprockets=(SimpleNamespace(angle0=0.0, speed=w0), SimpleNamespace(speed=1.02 * w0))
+    )
+    ys = SimpleNamespace(theta=jnp.stack([phi, 0 * phi], -1), omega=jnp.stack([0 * t, omega], -1))
+    rate = jax.vmap(
+        lambda ti, th, om: obs.integrand(ti, SimpleNamespace(theta=th, omega=om), scene, None)
+    )(jnp.asarray(t), ys.theta, ys.omega)
+    state = np.trapezoid(np.asarray(rate), t, axis=0)
+    value = float(obs.value(jnp.asarray(state), 0.0, t[-1]))
+    assert abs(value - a / math.sqrt(2)) < 1e-9 * a, value  # measured 3.5e-14 of a
+
+
+@pytest.mark.slow
 def test_speed_variation_matches_a_quadrature_of_the_saved_speed():
     """SpeedVariation of a driven sprocket: RMS of its speed about the Hann-weighted mean,
     relative to that mean, against the saved speed; its bearing force and torque lines
