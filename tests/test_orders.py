@@ -39,6 +39,49 @@ def quadrature_lines(ts, signal, angle, angle0, orders, start, end):
     return np.array(out)
 
 
+def test_order_lines_of_a_known_signal():
+    """OrderSpectrum's integrand and value on a prescribed torque with known lines,
+    s = m + Σ a_n·cos(nφ + c_n), over whole revolutions of the reference (Hann window):
+    each chosen order reads its amplitude (the mean for order 0), an absent order reads
+    nothing, at any constant speed; BandLevel is the lines' log-sum-exp in dB, between
+    the largest line and τ·log(n) above it; the bearing signal reads the force's
+    magnitude."""
+    from types import SimpleNamespace
+
+    lines = {0: 20.0, 18: 1.6, 36: 1.3, 19: 0.05}
+    w0 = 80.0
+    t = np.linspace(0.0, 3.0 * 2 * np.pi / w0, 300_001)
+    phi = w0 * t
+    torque = sum(a * np.cos(n * phi + 0.3 * n) for n, a in lines.items())
+    orders = np.array([0.0, 17.0, 18.0, 19.0, 36.0])
+    spectrum = OrderSpectrum(orders, 0.5, 2.5, signal="torque")
+    band = BandLevel([18.0, 19.0, 36.0], 0.5, 2.5, temperature=0.5)
+    bearing = OrderSpectrum([0.0], 0.5, 2.5, signal="bearing")
+    scene = SimpleNamespace(sprockets=(SimpleNamespace(angle0=0.0),))
+
+    def integrals(obs, force):
+        rate = jax.vmap(
+            lambda ti, th, tq, f: obs.integrand(
+                ti,
+                SimpleNamespace(theta=th[None]),
+                scene,
+                SimpleNamespace(sprocket_torque=tq[None], sprocket_force=f[None]),
+            )  # fmt: skip
+        )(jnp.asarray(t), jnp.asarray(phi), jnp.asarray(torque), force)
+        return np.trapezoid(np.asarray(rate), t, axis=0)
+
+    force = jnp.stack([3.0 + 0 * t, 4.0 + 0 * t], -1)  # |F| = 5 N
+    got = np.asarray(spectrum.value(jnp.asarray(integrals(spectrum, force)), 0.0, t[-1]))
+    want = np.array([lines.get(int(n), 0.0) for n in orders])
+    np.testing.assert_allclose(got, want, atol=1e-9)  # measured 2e-12
+    level = float(band.value(jnp.asarray(integrals(band, force)), 0.0, t[-1]))
+    top = 20 * math.log10(1.6)
+    assert top - 1e-6 <= level <= top + 0.5 * math.log(3) + 1e-6
+    mean_force = float(bearing.value(jnp.asarray(integrals(bearing, force)), 0.0, t[-1])[0])
+    assert abs(mean_force - 5.0) < 1e-6
+
+
+@pytest.mark.slow
 def test_order_lines_match_a_quadrature_of_the_saved_torque():
     """OrderSpectrum's running Fourier integrals (inside the solve, under error control)
     against the trapezoid rule on the saved driver torque every 1.1 µs; BandLevel is their
