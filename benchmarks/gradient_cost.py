@@ -85,11 +85,17 @@ def _best(f, repeats: int) -> float:
     return min(times)
 
 
-def measure(space: DesignSpace, repeats: int, seed: int = 0) -> dict:
-    obj = ProfileObjective(
+def objective(space: DesignSpace, **kwargs) -> ProfileObjective:
+    """The design objective of the study (module docstring) over ``space``; ``kwargs``
+    go to :class:`ProfileObjective` (e.g. ``throw=False``)."""
+    return ProfileObjective(
         space, build, t1=2 * PERIOD, t_start=PERIOD, temperature=20.0, reference=1500.0,
-        dt=4e-6,
+        dt=4e-6, **kwargs,
     )  # fmt: skip
+
+
+def measure(space: DesignSpace, repeats: int, seed: int = 0) -> dict:
+    obj = objective(space)
     u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
     scenes = obj.scenes(u)
     t = time.perf_counter()
