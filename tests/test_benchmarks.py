@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 
@@ -82,3 +83,28 @@ def test_gradient_cost_benchmark_quick(tmp_path):
     for r in res["rows"]:
         assert r["grad_finite"] and r["ratio"] > 1.0
     assert (tmp_path / "gradient_cost.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_methods_benchmark_quick(tmp_path):
+    from benchmarks.methods import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    assert [r["dimension"] for r in res["rows"]] == [4, 36]
+    for row in res["rows"]:
+        assert row["ratio"] > 1.0
+        runs = {r["method"]: r for r in row["runs"]}
+        assert set(runs) == {"Adam", "CMA-ES", "Nelder-Mead"}
+        for r in row["runs"]:
+            assert r["failed_solves"] == 0
+            assert 0 < r["simulation_equivalents"] <= row["budget"] + 1e-9
+            best = [b for _, b in r["curve"]]
+            assert np.all(np.diff(best) <= 0)
+        # a value + gradient is charged the measured ratio
+        adam = runs["Adam"]
+        assert adam["simulation_equivalents"] == pytest.approx(adam["evaluations"] * row["ratio"])
+        # Adam and Nelder-Mead evaluate the start first; Adam's steps lower the objective
+        assert adam["curve"][0] == [pytest.approx(row["ratio"]), pytest.approx(row["start_N"])]
+        assert adam["best_N"] < row["start_N"] and runs["Nelder-Mead"]["best_N"] <= row["start_N"]
+        assert row["target_N"] < row["start_N"]
+    assert (tmp_path / "methods.png").stat().st_size > 10_000

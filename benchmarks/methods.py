@@ -1,0 +1,331 @@
+"""Gradients against gradient-free methods at 4, 36 and 72 design coordinates.
+
+    python -m benchmarks.methods            # full study (~25 min on 2 cores)
+    python -m benchmarks.methods --quick    # smoke run (4 and 36 coordinates, small budget)
+
+Writes ``benchmarks/results/methods.json`` and ``methods.png`` (best objective so far
+against simulation-equivalents, per method, per dimension).
+
+Objective, the same for every method and dimension: the design objective of
+:mod:`benchmarks.gradient_cost` (``gradient_cost.objective``: 08B engagement, z = 18,
+1000 rpm, 1000 N, one operating point, design contact law, fixed 4 µs steps over two
+tooth periods, the soft peak roller/tooth force of the second [N]) over its design spaces
+(``gradient_cost.spaces``): 4 coordinates (the ISO 606 box), 36 (per-gap seating radius
+and clockwise seat angle) and 72 (per-gap seating radius, both seat angles and seat
+offset). Every evaluation builds and settles the scene for its design
+(``ProfileObjective.value`` / ``value_and_grad``, as ``python -m optimize`` calls them);
+the statics solve is not counted as a simulation.
+
+Every method starts at u = 0 (the middle of each box) and gets the same budget of
+simulation-equivalents at a dimension. A value is one simulation; a value + gradient
+counts as ``ratio`` simulations, the ratio measured in this run at each dimension by
+``gradient_cost.measure`` (the solve alone, the least of interleaved warm calls). The
+wall-time ratio of the run's evaluations, statics included, is reported beside it.
+
+Methods:
+
+* Adam (optax) on reverse-mode gradients, learning rate ``LEARNING_RATE`` in u;
+* CMA-ES (the ``cma`` package), step size ``SIGMA0`` in u, its default population,
+  several seeds;
+* Nelder-Mead (SciPy, adaptive parameters), initial simplex of unit steps in u.
+
+Every method's first moves are steps of about one unit of u (a quarter of the box's width
+about its middle). A failed solve is a value of ``FAILED`` to the gradient-free methods
+and ends an Adam run; the failures are counted.
+
+Reported per dimension: each run's best value and the simulation-equivalents at which it
+found it; the simulations each method needs to reach a common target (90 % of the largest
+decrease any method found); and for each CMA-ES seed, the simulation-equivalents Adam
+needs to reach that seed's best against those CMA-ES spent on it (the speed-up).
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+import jax.numpy as jnp  # noqa: E402
+import numpy as np  # noqa: E402
+
+from benchmarks import gradient_cost  # noqa: E402
+from benchmarks._cli import finish, parse, parser  # noqa: E402
+from benchmarks.work_precision import machine_info  # noqa: E402
+
+LEARNING_RATE = 1.0  # Adam's step in u (the sigmoid coordinate of each box)
+SIGMA0 = 1.0  # CMA-ES's initial step size in u
+TARGET_FRACTION = 0.9  # the common target: this fraction of the largest decrease found
+FAILED = 1e6  # the value a gradient-free method sees for a failed solve [N]
+
+
+def plan(quick: bool) -> dict:
+    """Dimensions, budgets (simulation-equivalents per method run) and CMA-ES seeds."""
+    if quick:
+        return {"dimensions": ("4", "36"), "budget": {"4": 24, "36": 24}, "seeds": (1,),
+                "repeats": 2}  # fmt: skip
+    return {"dimensions": ("4", "36", "72"), "budget": {"4": 150, "36": 300, "72": 300},
+            "seeds": (1, 2, 3), "repeats": 5}  # fmt: skip
+
+
+class _Budget(Exception):
+    """The run's budget of simulation-equivalents is spent."""
+
+
+class Tracker:
+    """Evaluations of one method run: simulation-equivalents spent, values, the best."""
+
+    def __init__(self, budget: float):
+        self.budget = budget
+        self.sims = 0.0
+        self.trace: list[tuple[float, float]] = []  # (simulation-equivalents, value)
+        self.best, self.best_u, self.failed = math.inf, None, 0
+
+    def room(self, cost: float) -> bool:
+        return self.sims + cost <= self.budget + 1e-9
+
+    def record(self, cost: float, value: float, u) -> float:
+        self.sims += cost
+        if not math.isfinite(value):
+            self.failed += 1
+            value = FAILED
+        self.trace.append((self.sims, value))
+        if value < self.best:
+            self.best, self.best_u = value, np.asarray(u, dtype=float).copy()
+        return value
+
+    def value_fn(self, obj):
+        """f(u) for a gradient-free method: one simulation each; ``_Budget`` when spent."""
+
+        def f(u):
+            if not self.room(1.0):
+                raise _Budget
+            value = float(obj.value(jnp.asarray(u, dtype=float))[0])
+            return self.record(1.0, value, u)
+
+        return f
+
+    def result(self, method: str, seed: int | None, wall: float, **extra) -> dict:
+        sims = np.array([s for s, _ in self.trace])
+        values = np.array([v for _, v in self.trace])
+        best_so_far = np.minimum.accumulate(values)
+        improved = np.r_[True, best_so_far[1:] < best_so_far[:-1]]
+        at = int(np.argmin(values))
+        return {
+            "method": method,
+            "seed": seed,
+            "evaluations": len(values),
+            "simulation_equivalents": float(self.sims),
+            "best_N": float(values[at]),
+            "best_at_sims": float(sims[at]),
+            "failed_solves": self.failed,
+            "wall_s": wall,
+            "seconds_per_evaluation": wall / max(len(values), 1),
+            # the best-so-far curve at its improvements (and at the end)
+            "curve": [
+                [float(s), float(b)]
+                for s, b in zip(sims[improved], best_so_far[improved], strict=True)
+            ]
+            + [[float(sims[-1]), float(best_so_far[-1])]],
+            "best_u": self.best_u.tolist(),
+            **extra,
+        }
+
+
+def adam(obj, u0, ratio: float, budget: float) -> tuple[dict, Tracker, np.ndarray]:
+    import optax
+
+    tr = Tracker(budget)
+    opt = optax.adam(LEARNING_RATE)
+    u = jnp.asarray(u0)
+    state = opt.init(u)
+    grad0 = None
+    t = time.perf_counter()
+    while tr.room(ratio):
+        value, grad, _ = obj.value_and_grad(u)
+        tr.record(ratio, float(value), u)
+        if not bool(jnp.all(jnp.isfinite(grad))):
+            break
+        grad0 = np.asarray(grad) if grad0 is None else grad0
+        updates, state = opt.update(grad, state)
+        u = optax.apply_updates(u, updates)
+    wall = time.perf_counter() - t
+    return tr.result("Adam", None, wall, learning_rate=LEARNING_RATE), tr, grad0
+
+
+def cma_es(obj, u0, budget: float, seed: int) -> dict:
+    import cma
+
+    tr = Tracker(budget)
+    f = tr.value_fn(obj)
+    es = cma.CMAEvolutionStrategy(np.asarray(u0), SIGMA0, {"seed": seed, "verbose": -9})
+    stop = "budget"
+    t = time.perf_counter()
+    try:
+        while not es.stop():
+            xs = es.ask()
+            es.tell(xs, [f(x) for x in xs])
+        stop = ", ".join(f"{k}" for k in es.stop())
+    except _Budget:
+        pass
+    wall = time.perf_counter() - t
+    return tr.result("CMA-ES", seed, wall, sigma0=SIGMA0, popsize=es.popsize, stop=stop)
+
+
+def nelder_mead(obj, u0, budget: float) -> dict:
+    from scipy.optimize import minimize
+
+    tr = Tracker(budget)
+    f = tr.value_fn(obj)
+    u0 = np.asarray(u0)
+    n = u0.shape[0]
+    simplex = u0 + np.vstack([np.zeros(n), np.eye(n)])
+    options = {"initial_simplex": simplex, "adaptive": True, "maxfev": 10**9,
+               "xatol": 1e-9, "fatol": 1e-9}  # fmt: skip
+    stop = "budget"
+    t = time.perf_counter()
+    try:
+        res = minimize(f, u0, method="Nelder-Mead", options=options)
+        stop = str(res.message)
+    except _Budget:
+        pass
+    wall = time.perf_counter() - t
+    return tr.result("Nelder-Mead", None, wall, stop=stop)
+
+
+def sims_to_reach(curve: list, target: float) -> float | None:
+    """Simulation-equivalents at which a best-so-far curve first reaches ``target``."""
+    return next((s for s, b in curve if b <= target), None)
+
+
+def analyse(row: dict) -> None:
+    """Targets, simulations to reach them and the speed-up over CMA-ES (into ``row``)."""
+    runs, f0 = row["runs"], row["start_N"]
+    best = min(r["best_N"] for r in runs)
+    target = f0 - TARGET_FRACTION * (f0 - best)
+    row["target_N"] = target
+    for r in runs:
+        r["sims_to_target"] = sims_to_reach(r["curve"], target)
+    adam_run = next(r for r in runs if r["method"] == "Adam")
+    speedups = []
+    for r in runs:
+        if r["method"] != "CMA-ES":
+            continue
+        need = sims_to_reach(adam_run["curve"], r["best_N"])
+        r["adam_sims_to_this_best"] = need
+        r["speedup"] = None if need is None else r["best_at_sims"] / need
+        speedups.append(r["speedup"])
+    reached = [s for s in speedups if s is not None]
+    row["speedup_over_cma"] = {
+        "per_seed": speedups,
+        "median": float(np.median(reached)) if len(reached) == len(speedups) else None,
+        "min": min(reached) if len(reached) == len(speedups) else None,
+        "seeds_adam_reached": len(reached),
+    }
+
+
+def study(name: str, space, budget: float, seeds, repeats: int) -> dict:
+    cost = gradient_cost.measure(space, repeats)
+    ratio = cost["ratio"]
+    print(f"dimension {space.size}: value+gradient / value = {ratio:.2f}", flush=True)
+    obj = gradient_cost.objective(space, throw=False)
+    u0 = jnp.zeros(space.size)
+    start = float(obj.value(u0)[0])
+    runs = []
+    run, _, grad0 = adam(obj, u0, ratio, budget)
+    runs.append(run)
+    print(f"  Adam: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims", flush=True)
+    for seed in seeds:
+        run = cma_es(obj, u0, budget, seed)
+        runs.append(run)
+        print(f"  CMA-ES seed {seed}: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f}"
+              f" sims ({run['stop']})", flush=True)  # fmt: skip
+    run = nelder_mead(obj, u0, budget)
+    runs.append(run)
+    print(f"  Nelder-Mead: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims",
+          flush=True)  # fmt: skip
+    g = np.abs(grad0)
+    row = {
+        "space": name,
+        "dimension": space.size,
+        "names": list(space.names),
+        "budget": budget,
+        "ratio": ratio,
+        "cost": cost,
+        # seconds per Adam step over seconds per gradient-free evaluation, statics included
+        "wall_ratio": runs[0]["seconds_per_evaluation"]
+        / float(np.median([r["seconds_per_evaluation"] for r in runs[1:]])),
+        "start_N": start,
+        "live_coordinates": int(np.sum(g > 1e-6 * g.max())),
+        "runs": runs,
+    }
+    analyse(row)
+    return row
+
+
+def chart(results: dict, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = results["rows"]
+    fig, axes = plt.subplots(1, len(rows), figsize=(5 * len(rows), 4), squeeze=False)
+    colors = {"Adam": "tab:red", "CMA-ES": "tab:blue", "Nelder-Mead": "tab:green"}
+    for ax, row in zip(axes[0], rows, strict=True):
+        labelled = set()
+        for r in row["runs"]:
+            s, b = np.array(r["curve"]).T
+            m = r["method"]
+            label = None
+            if m not in labelled:
+                label = f"Adam (value+grad = {row['ratio']:.1f} sims)" if m == "Adam" else m
+                labelled.add(m)
+            ax.step(np.r_[0.5, s], np.r_[row["start_N"], b], where="post", color=colors[m],
+                    lw=2.0 if m == "Adam" else 1.2, alpha=1.0 if m != "CMA-ES" else 0.7,
+                    label=label)  # fmt: skip
+        ax.axhline(row["target_N"], color="0.4", ls=":", lw=0.8, label="target (90 %)")
+        ax.set_xscale("log")
+        ax.set_xlim(0.8, row["budget"] * 1.1)
+        lo = min(r["best_N"] for r in row["runs"])
+        ax.set_ylim(lo - 0.05 * (row["start_N"] - lo), row["start_N"] + 0.1 * (row["start_N"] - lo))
+        ax.set_xlabel("simulation-equivalents")
+        ax.set_ylabel("best soft peak force so far [N]")
+        ax.set_title(f"{row['dimension']} coordinates ({row['live_coordinates']} live)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Gradients against gradient-free methods (08B engagement, z = 18)")
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    args = parse(parser(__doc__), argv)
+    start = time.perf_counter()
+    p = plan(args.quick)
+    spaces = gradient_cost.spaces()
+    rows = [
+        study(name, spaces[name], p["budget"][name], p["seeds"], p["repeats"])
+        for name in p["dimensions"]
+    ]
+    results = {
+        "study": "methods",
+        "command": "python -m benchmarks.methods" + (" --quick" if args.quick else ""),
+        "date": datetime.date.today().isoformat(),
+        "machine": machine_info(),
+        "settings": {
+            "learning_rate": LEARNING_RATE,
+            "sigma0": SIGMA0,
+            "target_fraction": TARGET_FRACTION,
+            **p,
+        },  # fmt: skip
+        "rows": rows,
+    }
+    return finish(results, args.out, "methods", chart, start)
+
+
+if __name__ == "__main__":
+    main()
