@@ -6,7 +6,13 @@ Enable float64 yourself (the library never changes global JAX configuration)::
     jax.config.update("jax_enable_x64", True)
 """
 
-from . import contact as contact, design as design, observers as observers, scenes as scenes
+from . import (
+    contact as contact,
+    design as design,
+    distributed as distributed,
+    observers as observers,
+    scenes as scenes,
+)
 from ._chain import ChainSpec as ChainSpec
 from ._dynamics import (
     DriveState as DriveState,

@@ -17,7 +17,6 @@ predicted waste stays below ``group_waste``. Groups are padded to a few batch si
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -29,7 +28,8 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike, Float, Int
 
-from . import _checks as checks
+from . import _checks as checks, _distributed as dist
+from ._distributed import LocalMembers
 from ._observers import PeakRecord
 from ._options import Resolved, SolveOptions, with_options
 from ._result import Result, raise_if_failed, result_messages, result_names
@@ -38,8 +38,6 @@ from ._simulate import Solution, peak_of, time_span
 from ._solve import check_horizon, solve, strong_scene
 
 __all__ = ["stack", "simulate_ensemble", "EnsembleSolution"]
-
-MEMBER_AXIS = "members"
 
 
 # ---------------------------------------------------------------------------- stacking
@@ -224,6 +222,11 @@ class EnsembleSolution(eqx.Module):
                 "sprocket_angle",
                 "sprocket_torque",
                 "peak_contact_force",
+                "roller_shoe_force",
+                "tensioner_angle",
+                "tensioner_force",
+                "tensioner_torque",
+                "guide_force",
             )
         }
         return Solution(
@@ -236,20 +239,15 @@ class EnsembleSolution(eqx.Module):
 
 
 # ---------------------------------------------------------------------------- devices
-@functools.cache
-def _mesh_of(devices: tuple) -> Mesh:
-    return Mesh(np.asarray(devices, dtype=object), (MEMBER_AXIS,))
-
-
 def _resolve_mesh(mesh, sharding) -> Mesh:
     if mesh is not None and sharding is not None:
         raise ValueError("give either mesh or sharding, not both")
     if sharding is not None:
         if sharding != "auto":
             raise ValueError(f'sharding must be None or "auto", got {sharding!r}')
-        return _mesh_of(tuple(jax.local_devices()))
+        return dist.global_mesh()  # one process: its local devices
     if mesh is None:  # one device, same code path
-        return _mesh_of((jax.local_devices()[0],))
+        return dist._mesh_of((jax.local_devices()[0],))
     if not isinstance(mesh, Mesh) or len(mesh.axis_names) != 1:
         raise ValueError(
             "mesh must be a jax.sharding.Mesh with one axis (the member axis), got "
@@ -372,7 +370,7 @@ def _plan(pred: np.ndarray, group_waste: float, n_devices: int) -> list[np.ndarr
 
 # ---------------------------------------------------------------------------- driver
 def simulate_ensemble(
-    scenes: Scene | Sequence[Scene],
+    scenes: Scene | Sequence[Scene] | LocalMembers,
     t1: ArrayLike,
     *,
     t0: ArrayLike = 0.0,
@@ -395,7 +393,8 @@ def simulate_ensemble(
 
     Args:
         scenes: a list of scenes of one structure, or a stacked scene
-            (:func:`~jaxchain.scenes.stack`).
+            (:func:`~jaxchain.scenes.stack`), or this process's share of them
+            (:func:`jaxchain.distributed.local_members`).
         t1, t0, ts, n_save: time span and save times, as in :func:`~jaxchain.simulate`.
         group_waste: run the members in groups of similar predicted cost, each group's
             predicted waste ratio (steps executed over steps needed, padding included)
@@ -419,8 +418,10 @@ def simulate_ensemble(
         mesh: a one-axis ``jax.sharding.Mesh``: the member axis is split across its
             devices (members padded to a multiple of its size), each device running its
             own batched while loop (``jax.shard_map``).
-        sharding: ``"auto"``: a mesh of all local devices. Default: one device (the
-            same code path).
+        sharding: ``"auto"``: a mesh of all devices — under JAX's multi-process runtime
+            (:mod:`jaxchain.distributed`) every process's, each process solving only its
+            share of the members (one batch, no grouping), the results gathered complete
+            on every process. Default: one device (the same code path).
         throw: raise ``RuntimeError`` naming every failed member and why; with
             ``throw=False`` check ``EnsembleSolution.result`` / ``.failed`` /
             ``.messages``.
@@ -434,9 +435,17 @@ def simulate_ensemble(
     new values and the same batch sizes does not retrace.
     """
     opts = with_options(options, solve_options, "simulate_ensemble")
-    if not isinstance(scenes, Scene):
+    mesh = _resolve_mesh(mesh, sharding)
+    share = None  # across processes: this process's rows and the split
+    if dist.spans_processes(mesh):
+        scenes, share = dist.share(scenes, mesh)
+    elif isinstance(scenes, LocalMembers):
+        if scenes.split.processes > 1:
+            raise ValueError("LocalMembers of several processes need sharding='auto'")
+        scenes = scenes.scenes
+    elif not isinstance(scenes, Scene):
         scenes = stack(scenes)
-    m = _n_members(scenes)
+    m = _n_members(scenes) if share is None else share.members
     if pilot_rtol is not None:
         checks.real("pilot_rtol", pilot_rtol, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     if group_waste is not None and not group_waste >= 1.0:
@@ -454,11 +463,19 @@ def simulate_ensemble(
     dt0_m = None
     if member_dt0:
         dt0_m, args = args.resolved.dt0, args.with_dt0(None)
-    mesh = _resolve_mesh(mesh, sharding)
     n_dev = int(mesh.devices.size)
     traced = any(
         isinstance(x, jax.core.Tracer) for x in jax.tree_util.tree_leaves((scenes, args, dt0_m))
     )
+    if share is not None:
+        if traced:
+            raise ValueError(
+                "simulate_ensemble across processes runs outside jax.jit/jax.grad; for "
+                "gradients use jc.design.ProfileObjective(..., sharding='auto')"
+            )
+        if dt0_m is not None:
+            dt0_m = jnp.asarray(dt0_m)[np.asarray(share.slots)]
+        return _across_processes(scenes, share, dt0_m, args, mesh, throw)
 
     def run(index, a):
         """Solve the members ``index`` (numpy) padded to a planned size with options ``a``."""
@@ -541,6 +558,38 @@ def simulate_ensemble(
         predicted_steps=None if predicted is None else jnp.asarray(predicted),
         groups=tuple(tuple(int(i) for i in g) for g in groups),
         batch_sizes=tuple(sizes),
+        n_devices=n_dev,
+        **saved,
+    )
+
+
+def _across_processes(local, sp, dt0, args: _Args, mesh: Mesh, throw: bool):
+    """One batch over ``mesh`` spanning processes: this process's rows ``local`` (and
+    per-row ``dt0``) join the global member axis, each device solves its slice, and the
+    results are gathered complete on every process (rows past the last member dropped)."""
+    scenes_g, dt0_g = dist.to_global((local, dt0), mesh, sp)
+    out = _solve_batch(scenes_g, dt0_g, args, mesh)
+    out = dist.gather(out)  # (padded rows), the same on every process
+    n_dev, m = int(mesh.devices.size), sp.members
+    per = sp.padded // n_dev
+    executed = per * jnp.sum(jnp.max(out.stats["num_steps"].reshape(n_dev, per), axis=1))
+    out = _take(out, np.arange(m))
+    saved, result, stats = out.saved, out.result, out.stats
+    if throw:
+        saved = raise_if_failed(result, saved, "simulate_ensemble")
+    return EnsembleSolution(
+        ts=args.ts,
+        peak_contact_force=peak_of(saved, out.observed[0]),
+        result=result,
+        stats=stats,
+        y1=out.y1,
+        steps=stats["num_steps"],
+        accepted_steps=stats["num_accepted_steps"],
+        steps_executed=executed,
+        waste=executed / jnp.sum(stats["num_steps"]),
+        predicted_steps=None,
+        groups=(tuple(range(m)),),
+        batch_sizes=(sp.padded,),
         n_devices=n_dev,
         **saved,
     )
