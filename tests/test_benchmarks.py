@@ -108,3 +108,18 @@ def test_methods_benchmark_quick(tmp_path):
         assert adam["best_N"] < row["start_N"] and runs["Nelder-Mead"]["best_N"] <= row["start_N"]
         assert row["target_N"] < row["start_N"]
     assert (tmp_path / "methods.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_quiet_drive_benchmark_quick(tmp_path):
+    from benchmarks.quiet_drive import main
+
+    res = main(["--quick", "--processes", "2", "--out", str(tmp_path)])
+    summ = res["summary"]
+    assert set(summ) == {"iso_min", "random_radius"}
+    for v in summ.values():
+        assert not v["failed"] and 0 < v["worst_peak_N"] < 20_000
+        assert -40 < v["signals"]["bearing1"]["worst_dB"] < 100
+    assert summ["iso_min"]["vs_iso_min"]["worst_peak"] == 0.0
+    assert (tmp_path / "quiet_drive.png").stat().st_size > 10_000
+    assert not (tmp_path / "quiet_drive.partial.json").exists()

@@ -1,0 +1,317 @@
+"""Mesh-order noise of a closed drive over a speed band: uniform and per-tooth sprockets.
+
+    python -m benchmarks.quiet_drive                  # full study (45 solves, ~1.5 CPU-hours)
+    python -m benchmarks.quiet_drive --processes 15   # the same, 15 solves at a time
+    python -m benchmarks.quiet_drive --quick          # smoke run (2 short solves)
+
+Writes ``benchmarks/results/quiet_drive.json`` and ``quiet_drive.png``. Each solve runs in
+a process of its own (single-threaded XLA), so ``--processes`` spreads the study over the
+cores of a machine; finished solves are kept in ``quiet_drive.partial.json`` and a rerun
+with the same settings skips them.
+
+Scene: 08B chain, 60 links, driver z = 18 (the sprocket designed) and a uniform ISO 606
+minimum-form z = 36, 40 N·m load, 300 N pretension, lumped chain with joint friction,
+settled start. Each solve runs ``revs`` revolutions of the driver; the signals' rotation
+orders 0–72 of the driver are integrated inside the solve (Hann window over revolutions
+0.25 to ``revs`` − 0.05: ``jc.observers.OrderSpectrum``). Mesh order is 18; the band is
+0.5–3.5 mesh orders (orders 9–63), as in ``BandLevel.mesh_band``.
+
+Designs of the z = 18 driver:
+
+* ``iso_min``, ``iso_max``: the ISO 606 minimum and maximum forms, every tooth alike;
+* ``gentle``: the main job's free-form asymmetric tooth (``benchmarks/results/
+  optimize_default/results.json``), every tooth alike;
+* ``random_radius``: a per-tooth pattern, each gap's seating radius drawn uniformly in the
+  ISO 606 range (seed 0), the ISO minimum form's flanks;
+* ``random_flanks``: a per-tooth pattern, each gap's two seat angles drawn uniformly in
+  the main job's free-form box (clockwise 62–78°, counter-clockwise 57–68°, seed 0).
+
+For each design and speed: the lines of the driven sprocket's bearing force and torque,
+the largest line in the band, and the peak roller/tooth force (at the save times). The
+figure shows the largest line against speed, the peak against speed, and the spectra at
+the speed where the uniform ISO minimum form is loudest.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks._cli import finish, parse, parser
+
+CHAIN = "08B"
+Z, Z_DRIVEN, N_LINKS = 18, 36, 60
+LOAD, PRETENSION = 40.0, 300.0
+ORDERS = np.arange(0.0, 73.0)
+BAND = (9.0, 63.0)  # 0.5–3.5 mesh orders
+SIGNALS = (("bearing", 1), ("torque", 1))
+DESIGNS = ("iso_min", "iso_max", "gentle", "random_radius", "random_flanks")
+SPEEDS = tuple(float(s) for s in np.arange(500.0, 1501.0, 125.0))
+GENTLE = Path(__file__).parent / "results" / "optimize_default" / "results.json"
+
+
+def profile(design: str):
+    """The z = 18 driver's tooth profile of ``design`` (module docstring)."""
+    import jaxchain as jc
+
+    chain = jc.ChainSpec.iso606(CHAIN)
+    iso = {f: jc.ToothProfile.iso606(chain, Z, f) for f in ("min", "max")}
+    if design == "iso_min":
+        return jc.FreeformProfile.from_iso(iso["min"], 2)
+    if design == "iso_max":
+        return jc.FreeformProfile.from_iso(iso["max"], 2)
+    tip = jc.iso606_limits(chain, Z)["tip_diameter"][0]
+    base = jc.FreeformProfile.from_iso(iso["min"], 2, tip_diameter=tip)
+    rng = np.random.default_rng(0)
+    if design == "gentle":
+        p = json.loads(GENTLE.read_text())["optimized"]["params"]
+        return jc.FreeformProfile(
+            teeth=Z,
+            pitch=base.pitch,
+            roller_diameter=base.roller_diameter,
+            seating_radius=p["seating_radius"],
+            tip_diameter=tip,
+            cw=jc.Flank(p["cw.seat_angle"], p["cw.curvature"], base.cw.breaks),
+            ccw=jc.Flank(p["ccw.seat_angle"], p["ccw.curvature"], base.ccw.breaks),
+        )
+    if design == "random_radius":
+        lo, hi = (float(iso[f].seating_radius) for f in ("min", "max"))
+        return _with(base, seating_radius=rng.uniform(lo, hi, Z))
+    if design == "random_flanks":
+        deg = math.radians
+        cw = jc.Flank(rng.uniform(deg(62), deg(78), Z), base.cw.curvature, base.cw.breaks)
+        ccw = jc.Flank(rng.uniform(deg(57), deg(68), Z), base.ccw.curvature, base.ccw.breaks)
+        return _with(base, cw=cw, ccw=ccw)
+    raise ValueError(f"design must be one of {DESIGNS}, got {design!r}")
+
+
+def _with(p, **changes):
+    """``p`` with some fields changed (validated anew by the constructor)."""
+    import jaxchain as jc
+
+    fields = dict(
+        teeth=p.teeth,
+        pitch=p.pitch,
+        roller_diameter=p.roller_diameter,
+        seating_radius=p.seating_radius,
+        seat_offset=p.seat_offset,
+        phase=p.phase,
+        tip_diameter=p.tip_diameter,
+        cw=p.cw,
+        ccw=p.ccw,
+    )
+    return jc.FreeformProfile(**(fields | changes))
+
+
+def solve(design: str, rpm: float, revs: float) -> dict:
+    """One solve of the drive with ``design`` at ``rpm`` over ``revs`` driver revolutions:
+    the signals' order lines, the peak force, the solver's statistics and its wall time."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import jaxchain as jc
+    from jaxchain.observers import OrderSpectrum
+
+    chain = jc.ChainSpec.iso606(CHAIN)
+    t = time.perf_counter()
+    scene = jc.scenes.drive(
+        chain,
+        teeth=(Z, Z_DRIVEN),
+        n_links=N_LINKS,
+        speed_rpm=rpm,
+        load_torque=LOAD,
+        pretension=PRETENSION,
+        profiles=[profile(design), jc.ToothProfile.iso606(chain, Z_DRIVEN, "min")],
+    )
+    build_s = time.perf_counter() - t
+    observers = tuple(
+        OrderSpectrum(ORDERS, 0.25, revs - 0.05, signal=s, sprocket=k, reference=0)
+        for s, k in SIGNALS
+    )
+    t = time.perf_counter()
+    sol = jc.simulate(scene, revs * 60.0 / rpm, n_save=400, observers=observers, max_steps=400_000)
+    jax.block_until_ready(sol.observed)
+    row = {
+        "design": design,
+        "rpm": rpm,
+        "result": jc.result_names(sol.result)[0],
+        "peak_N": float(sol.peak_contact_force),
+        "num_steps": int(sol.stats["num_steps"]),
+        "build_s": build_s,
+        "solve_s": time.perf_counter() - t,
+    }
+    for (s, k), lines in zip(SIGNALS, sol.observed, strict=True):
+        row[f"{s}{k}"] = np.asarray(lines).tolist()
+    return row
+
+
+def band_max(lines) -> tuple[float, float]:
+    """The largest line in the band [dB re 1 signal unit] and its order."""
+    lines = np.asarray(lines)
+    inside = (ORDERS >= BAND[0]) & (ORDERS <= BAND[1])
+    i = int(np.argmax(np.where(inside, lines, -np.inf)))
+    return 20 * math.log10(max(lines[i], 1e-12)), float(ORDERS[i])
+
+
+def summarize(rows: list[dict], designs, speeds) -> dict:
+    """Per design: the largest band line at each speed, its worst over the band, the peak
+    force's worst; and the differences to the uniform ISO minimum form."""
+    out = {}
+    for d in designs:
+        mine = {r["rpm"]: r for r in rows if r["design"] == d}
+        ok = [s for s in speeds if s in mine and mine[s]["result"] == "successful"]
+        if not ok:
+            continue
+        per = {}
+        for sig in (f"{s}{k}" for s, k in SIGNALS):
+            levels = [band_max(mine[s][sig]) for s in ok]
+            worst = int(np.argmax([v for v, _ in levels]))
+            per[sig] = {
+                "largest_line_dB": [v for v, _ in levels],
+                "order": [o for _, o in levels],
+                "worst_dB": levels[worst][0],
+                "worst_rpm": ok[worst],
+            }
+        peaks = [mine[s]["peak_N"] for s in ok]
+        out[d] = {
+            "speeds": ok,
+            "failed": [s for s in speeds if s in mine and s not in ok],
+            "signals": per,
+            "peak_N": peaks,
+            "worst_peak_N": max(peaks),
+        }
+    base = out.get("iso_min")
+    if base:
+        for v in out.values():
+            v["vs_iso_min"] = {
+                "worst_line_dB": {
+                    sig: v["signals"][sig]["worst_dB"] - base["signals"][sig]["worst_dB"]
+                    for sig in v["signals"]
+                },
+                "worst_peak": v["worst_peak_N"] / base["worst_peak_N"] - 1,
+            }
+    return out
+
+
+def chart(results: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summ, rows = results["summary"], results["runs"]
+    sig = "bearing1"
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
+    for d, v in summ.items():
+        style = "o-" if d.startswith(("iso", "gentle")) else "s--"
+        ax[0].plot(v["speeds"], v["signals"][sig]["largest_line_dB"], style, label=d)
+        ax[1].plot(v["speeds"], v["peak_N"], style, label=d)
+    ax[0].set(
+        xlabel="driver speed [rpm]",
+        ylabel="largest line, orders 9–63 [dB re 1 N]",
+        title="Driven sprocket's bearing force: largest line in 0.5–3.5 mesh orders",
+    )
+    ax[1].set(xlabel="driver speed [rpm]", ylabel="peak roller/tooth force [N]", title="Peak force")
+    if "iso_min" in summ:
+        rpm = summ["iso_min"]["signals"][sig]["worst_rpm"]
+        for d in ("iso_min", min(summ, key=lambda d: summ[d]["signals"][sig]["worst_dB"])):
+            r = next(r for r in rows if r["design"] == d and r["rpm"] == rpm)
+            lv = 20 * np.log10(np.maximum(np.asarray(r[sig]), 1e-3))
+            ax[2].plot(ORDERS[1:], lv[1:], ".-", label=f"{d} at {rpm:.0f} rpm")
+        ax[2].axvspan(*BAND, color="0.92", zorder=0)
+        ax[2].set(
+            xlabel="order of the driver's rotation (mesh order 18)",
+            ylabel="line [dB re 1 N]",
+            title="Spectra where the ISO minimum form is loudest",
+        )
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.suptitle(
+        f"{results['command']} — {results['date']}, {results['machine']['cpu_count']} cores",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _worker_env() -> None:
+    """Environment of the solve processes (inherited at spawn): one thread each."""
+    os.environ["XLA_FLAGS"] = (
+        os.environ.get("XLA_FLAGS", "")
+        + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+    ).strip()
+    os.environ.setdefault("EQX_ON_ERROR", "nan")
+
+
+def main(argv=None) -> dict:
+    from benchmarks.work_precision import machine_info
+
+    ap = parser(__doc__, "two designs, one speed, a short window")
+    ap.add_argument("--processes", type=int, default=max(1, (os.cpu_count() or 2) - 1))
+    ap.add_argument("--revs", type=float, default=2.3, help="driver revolutions per solve")
+    args = parse(ap, argv)
+    if args.processes < 1:
+        raise SystemExit(f"--processes must be ≥ 1, got {args.processes}")
+    if args.revs <= 0.5:
+        raise SystemExit(f"--revs must exceed 0.5 (the window starts at 0.25), got {args.revs}")
+    designs, speeds, revs = DESIGNS, SPEEDS, args.revs
+    if args.quick:
+        designs, speeds, revs = ("iso_min", "random_radius"), (1000.0,), 0.6
+    settings = {"designs": list(designs), "speeds": list(speeds), "revs": revs}
+    partial = args.out / "quiet_drive.partial.json"
+    rows = []
+    if partial.exists():
+        saved = json.loads(partial.read_text())
+        if saved["settings"] == settings:
+            rows = saved["runs"]
+    done = {(r["design"], r["rpm"]) for r in rows}
+    jobs = [(d, s) for s in speeds for d in designs if (d, s) not in done]
+    print(f"{len(jobs)} solves to run ({len(done)} kept from {partial.name}), "
+          f"{args.processes} at a time")  # fmt: skip
+    start = time.perf_counter()
+    _worker_env()
+    import multiprocessing as mp
+
+    with ProcessPoolExecutor(args.processes, mp_context=mp.get_context("spawn")) as pool:
+        futures = {pool.submit(solve, d, s, revs): (d, s) for d, s in jobs}
+        for f in as_completed(futures):
+            row = f.result()
+            rows.append(row)
+            partial.write_text(json.dumps({"settings": settings, "runs": rows}))
+            print(
+                f"  {row['design']:14s} {row['rpm']:6.0f} rpm: {row['result']}, "
+                f"{row['num_steps']} steps, {row['solve_s']:.0f} s, peak {row['peak_N']:.0f} N"
+            )
+    results = {
+        "command": "python -m benchmarks.quiet_drive"
+        + (" --quick" if args.quick else "")
+        + f" --processes {args.processes}",
+        "date": datetime.date.today().isoformat(),
+        "machine": machine_info(),
+        "settings": settings | {"processes": args.processes, "orders": ORDERS.tolist()},
+        "summary": summarize(rows, designs, speeds),
+        "runs": sorted(rows, key=lambda r: (r["design"], r["rpm"])),
+    }
+    for d, v in results["summary"].items():
+        b = v["signals"]["bearing1"]
+        print(
+            f"{d:14s} worst largest line {b['worst_dB']:6.2f} dB at {b['worst_rpm']:.0f} rpm; "
+            f"worst peak {v['worst_peak_N']:.0f} N"
+            + (f"; failed at {v['failed']}" if v["failed"] else "")
+        )
+    out = finish(results, args.out, "quiet_drive", chart, start)
+    partial.unlink(missing_ok=True)
+    return out
+
+
+if __name__ == "__main__":
+    main()
