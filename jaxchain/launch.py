@@ -167,7 +167,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     ap.add_argument("-n", "--processes", type=int, required=True, help="processes to start")
-    ap.add_argument("-m", dest="module", help="run a module (as python -m does)")
+    ap.add_argument(
+        "-m",
+        dest="module",
+        nargs=argparse.REMAINDER,
+        metavar="MODULE ...",
+        help="run a module with its arguments (as python -m does); last",
+    )
     ap.add_argument("--port", type=int, help="coordinator port on localhost (default: a free one)")
     ap.add_argument(
         "--devices", type=int, help="CPU devices per process (XLA's forced host device count)"
@@ -179,8 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("program", nargs=argparse.REMAINDER, help="script.py [args ...]")
     args = ap.parse_args(argv)
-    if args.module:
-        command = [sys.executable, "-m", args.module, *args.program]
+    if args.module is not None:
+        if not args.module:
+            ap.error("-m needs a module name")
+        command = [sys.executable, "-m", *args.module]
     elif args.program:
         command = [sys.executable, *args.program]
     else:

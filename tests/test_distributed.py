@@ -80,6 +80,23 @@ def test_launcher_validates_and_names_a_process_that_exits_early(tmp_path, capfd
     assert launch([sys.executable, "-c", "pass"], 2) == 0
 
 
+def test_launcher_command_line(monkeypatch):
+    import jaxchain.launch as launcher
+
+    seen = []
+    monkeypatch.setattr(launcher, "launch", lambda cmd, n, **kw: seen.append((n, cmd[1:])) or 0)
+    # everything after -m MODULE (or after the script) belongs to the program
+    assert launcher.main(["-n", "2", "-m", "optimize", "--fast", "-n", "3"]) == 0
+    assert launcher.main(["-n", "3", "run.py", "--out", "x", "-m", "y"]) == 0
+    assert seen == [
+        (2, ["-m", "optimize", "--fast", "-n", "3"]),
+        (3, ["run.py", "--out", "x", "-m", "y"]),
+    ]
+    for argv in (["-n", "2"], ["-n", "2", "-m"]):
+        with pytest.raises(SystemExit):
+            launcher.main(argv)
+
+
 # ------------------------------------------------------------------ slow: 2 processes vs 1
 WORKER = """
 import json, sys
