@@ -1,0 +1,368 @@
+"""Speed of drives as engineers build them: a timing drive against a two-sprocket drive,
+and compile time against the number of sprockets.
+
+    python -m benchmarks.drives            # full study (~25 min on a loaded 2-core CPU)
+    python -m benchmarks.drives --quick    # smoke run (CI-sized)
+
+Writes ``benchmarks/results/drives.json`` and ``drives.png``. The machine is shared:
+every timing is stored with the load average read next to it, and every ratio comes from
+runs interleaved in this one process (the least of ``repeats`` warm runs of each scene,
+the scenes taking turns), so both sides of a ratio see the same load.
+
+The timing drive (:data:`TIMING`): 06B chain, 120 links, crank 21 teeth at 3000 rpm, two
+cams of 42 teeth loaded with 2 N·m each, a pivoting-arm :class:`~jaxchain.scenes.Tensioner`
+on the slack span (0, crank to first cam), a straight :class:`~jaxchain.scenes.Guide` on
+the tight span (2, second cam to crank), default joint friction, settled. The two-sprocket
+drives: the same chain, crank and load on a 42-tooth sprocket, 100 links and 120 links
+(the timing drive's count), fixed centres, settled. Measured:
+
+* cost: warm wall time over the same window from the settled start (Tsit5, rtol 1e-6),
+  per crank revolution and per simulated second, steps and µs per step; the timing drive's
+  cost per simulated second over each two-sprocket drive's (goal ≤ 1.5 at the same link
+  count). Beside the wall time, this process's CPU time (all its threads): other jobs on
+  the machine stretch the wall time but barely the CPU time, so its ratios are the
+  steadier ones under load;
+* compile time of ``simulate`` (first call minus a warm call, the persistent compilation
+  cache off, jax's caches cleared between repeats, the least of the repeats; wall and CPU
+  time) for drives
+  of 2, 3 and 5 sprockets of about 120 links without shoes, and for the timing drive with
+  its tensioner and guide (goal: 2 → 3 → 5 within 1.5×);
+* the same in the clearance fidelity (rigid links on pin/bush and bush/roller clearance
+  joints; the tensioner's and guide's shoes act on the rollers there too): cost over a
+  short window, compile 2 → 3 → 5 (full run only).
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import os
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+# compile times are measured: nothing may come from the persistent cache
+jax.config.update("jax_enable_compilation_cache", False)
+
+
+import jaxchain as jc  # noqa: E402
+from benchmarks._cli import finish, parse, parser  # noqa: E402
+from benchmarks.work_precision import machine_info  # noqa: E402
+
+CHAIN = "06B"
+RPM = 3000.0
+REV = 60.0 / RPM  # one crank revolution [s]
+COMMON = dict(speed_rpm=RPM, load_torque=2.0, pretension=150.0)
+TIMING_CENTRES = ((0.0, 0.0), (0.06, 0.32), (-0.1, 0.32))
+#: the timing drive: crank, two cams; tensioner on the slack span, guide on the tight one
+TIMING = dict(
+    teeth=(21, 42, 42),
+    centres=TIMING_CENTRES,
+    n_links=120,
+    tensioner=jc.scenes.Tensioner(span=0, shoe_radius=0.12, damping=0.02),
+    guides=(jc.scenes.Guide(span=2, length=0.12),),
+)
+#: drives without shoes for the compile time against the sprocket count (about 120 links)
+BY_SPROCKETS = {
+    2: dict(teeth=(21, 42), n_links=120),
+    3: dict(teeth=(21, 42, 42), centres=TIMING_CENTRES, n_links=120),
+    5: dict(
+        teeth=(21, 17, 42, 42, 17),
+        centres=((0.0, 0.0), (0.12, 0.12), (0.06, 0.32), (-0.1, 0.32), (-0.12, 0.12)),
+        load_torque=(0.0, 2.0, 2.0, 0.0),  # two idlers, two cams
+        n_links=126,
+    ),
+}
+
+
+def build(name: str, fidelity: str = "lumped", settle: bool = True):
+    """The scene ``name``: "timing", "two_100", "two_120", or "sprockets_<n>"."""
+    if name == "timing":
+        kw = TIMING
+    elif name.startswith("two_"):
+        kw = dict(teeth=(21, 42), n_links=int(name[4:]))
+    else:
+        kw = BY_SPROCKETS[int(name.split("_")[1])]
+    return jc.scenes.drive(CHAIN, **{**COMMON, **kw}, fidelity=fidelity, settle=settle)
+
+
+def load() -> float:
+    """The 1-minute load average (what ``uptime`` shows first)."""
+    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+
+
+def timed(scene, t1: float, **kw):
+    """A solve, its wall time and this process's CPU time (all threads) [s]."""
+    t, c = time.perf_counter(), time.process_time()
+    sol = jc.simulate(scene, t1, throw=False, **kw)
+    jax.block_until_ready(sol.peak_contact_force)
+    return sol, time.perf_counter() - t, time.process_time() - c
+
+
+def cost(names: list[str], fidelity: str, window_rev: float, repeats: int) -> dict:
+    """Warm wall time of each scene over ``window_rev`` crank revolutions, the scenes taking
+    turns ``repeats`` times; the least of each, and ratios to the two-sprocket drives."""
+    t = time.perf_counter()
+    scenes = {n: build(n, fidelity) for n in names}
+    print(f"  built and settled {len(names)} {fidelity} scenes in {time.perf_counter() - t:.0f} s")
+    t1 = window_rev * REV
+    for sc in scenes.values():  # compile (the window is traced: a short one will do)
+        timed(sc, 1e-5, n_save=11)
+    runs = {n: [] for n in names}
+    for rep in range(repeats):
+        for n, sc in scenes.items():
+            before = load()
+            sol, wall, cpu = timed(sc, t1, n_save=11)
+            runs[n].append(
+                {
+                    "wall_s": wall,
+                    "cpu_s": cpu,
+                    "load_before": before,
+                    "load_after": load(),
+                    "steps": int(sol.stats["num_steps"]),
+                    "result": sol.result_name,
+                }
+            )
+            print(
+                f"  {fidelity:9s} {n:8s} rep {rep}: {wall:6.2f} s (CPU {cpu:6.2f} s), "
+                f"{runs[n][-1]['steps']:6d} steps, load {before:.1f}",
+                flush=True,
+            )
+    rows = {}
+    for n, sc in scenes.items():
+        best = min(runs[n], key=lambda r: r["wall_s"])
+        cpu = min(r["cpu_s"] for r in runs[n])
+        rows[n] = {
+            "links": sc.n_links,
+            "bodies": sc.n_bodies,
+            "sprockets": len(sc.sprockets),
+            "window_s": t1,
+            "wall_s": best["wall_s"],
+            "wall_per_rev_s": best["wall_s"] * REV / t1,
+            "wall_per_simulated_s": best["wall_s"] / t1,
+            "cpu_per_simulated_s": cpu / t1,
+            "steps": best["steps"],
+            "steps_per_rev": best["steps"] * REV / t1,
+            "us_per_step": best["wall_s"] / best["steps"] * 1e6,
+            "result": best["result"],
+            "runs": runs[n],
+        }
+    out = {"window_rev": window_rev, "repeats": repeats, "rows": rows, "ratios": {}}
+    for base in [n for n in names if n.startswith("two_")]:
+        b = rows[base]
+        r = rows["timing"]
+        out["ratios"][f"timing_over_{base}"] = {
+            "cost_per_simulated_s": r["wall_per_simulated_s"] / b["wall_per_simulated_s"],
+            "cpu_per_simulated_s": r["cpu_per_simulated_s"] / b["cpu_per_simulated_s"],
+            "steps": r["steps"] / b["steps"],
+            "us_per_step": r["us_per_step"] / b["us_per_step"],
+        }
+        q = out["ratios"][f"timing_over_{base}"]
+        print(
+            f"  {fidelity}: timing / {base}: cost per simulated second ×"
+            f"{q['cost_per_simulated_s']:.2f}, CPU time ×{q['cpu_per_simulated_s']:.2f} "
+            f"(steps ×{q['steps']:.2f}, "
+            f"per step ×{q['us_per_step']:.2f})",
+            flush=True,
+        )
+    return out
+
+
+def compile_times(names: list[str], fidelity: str, repeats: int) -> dict:
+    """Compile time of ``simulate`` (cold minus warm call over 20 µs) per scene, jax's
+    caches cleared before each cold call, the scenes taking turns; the least of each."""
+    scenes = {n: build(n, fidelity, settle=False) for n in names}
+    # a throwaway compile first: the process's one-off start-up costs stay out of the rows
+    timed(build("two_100", fidelity, settle=False), 2e-5, n_save=3)
+    runs = {n: [] for n in names}
+    for rep in range(repeats):
+        for n, sc in scenes.items():
+            jax.clear_caches()
+            before = load()
+            _, cold, cold_cpu = timed(sc, 2e-5, n_save=3)
+            _, warm, warm_cpu = timed(sc, 2e-5, n_save=3)
+            runs[n].append(
+                {
+                    "compile_s": cold - warm,
+                    "compile_cpu_s": cold_cpu - warm_cpu,
+                    "load_before": before,
+                }
+            )
+            print(
+                f"  {fidelity:9s} compile {n:12s} rep {rep}: {cold - warm:5.1f} s "
+                f"(CPU {cold_cpu - warm_cpu:5.1f} s), load {before:.1f}",
+                flush=True,
+            )
+    rows = {
+        n: {
+            "sprockets": len(sc.sprockets),
+            "links": sc.n_links,
+            "shoes": 0 if sc.shoes is None else int(sc.shoes.mid.shape[0]),
+            "compile_s": min(r["compile_s"] for r in runs[n]),
+            "compile_cpu_s": min(r["compile_cpu_s"] for r in runs[n]),
+            "runs": runs[n],
+        }
+        for n, sc in scenes.items()
+    }
+    ratios = {}
+    for key, suffix in (("compile_s", ""), ("compile_cpu_s", "_cpu")):
+        c = {n: r[key] for n, r in rows.items()}
+        ratios["3_over_2" + suffix] = c["sprockets_3"] / c["sprockets_2"]
+        ratios["5_over_2" + suffix] = c["sprockets_5"] / c["sprockets_2"]
+        ratios["5_over_3" + suffix] = c["sprockets_5"] / c["sprockets_3"]
+        if "timing" in c:
+            ratios["timing_over_3" + suffix] = c["timing"] / c["sprockets_3"]
+    print(
+        f"  {fidelity}: compile 2 → 3 → 5 sprockets ×{ratios['3_over_2']:.2f} "
+        f"×{ratios['5_over_2']:.2f} (CPU time ×{ratios['3_over_2_cpu']:.2f} "
+        f"×{ratios['5_over_2_cpu']:.2f})" + (
+            f"; with tensioner and guide ×{ratios['timing_over_3']:.2f} of 3"
+            if "timing" in c else ""
+        ),
+        flush=True,
+    )  # fmt: skip
+    return {"repeats": repeats, "rows": rows, "ratios": ratios}
+
+
+def chart(res: dict, path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
+    colours = {"lumped": "tab:blue", "clearance": "tab:orange"}
+    labels, values, cols, notes = [], [], [], []
+    for fid, c in res["cost"].items():
+        base = c["rows"]["two_120"]["wall_per_simulated_s"]
+        for n, r in c["rows"].items():
+            labels.append(f"{fid}\n{n.replace('_', ' ')} ({r['links']} links)")
+            values.append(r["wall_per_simulated_s"] / base)
+            cols.append(colours[fid])
+            notes.append(f" ×{values[-1]:.2f}  ({r['wall_per_rev_s']:.3g} s/rev)")
+    ax[0].barh(labels, values, color=cols)
+    ax[0].axvline(1.5, color="k", ls="--", lw=0.8, label="goal: 1.5× at the same link count")
+    for i, (v, note) in enumerate(zip(values, notes, strict=True)):
+        ax[0].text(v, i, note, va="center", fontsize=8)
+    ax[0].set_xlim(0, 1.35 * max(values))
+    ax[0].invert_yaxis()
+    ax[0].set_xlabel("cost per simulated second / the 120-link two-sprocket drive's")
+    ax[0].set_title(f"timing drive vs two sprockets ({RPM:.0f} rpm crank, warm)")
+    ax[0].legend(fontsize=8, loc="lower right")
+    top = 0.0
+    for fid, c in res["compile"].items():
+        rows = [r for n, r in c["rows"].items() if n.startswith("sprockets_")]
+        top = max([top] + [r["compile_s"] for r in c["rows"].values()])
+        ax[1].plot(
+            [r["sprockets"] for r in rows],
+            [r["compile_s"] for r in rows],
+            "o-",
+            color=colours[fid],
+            label=f"{fid}, no shoes",
+        )
+        if "timing" in c["rows"]:
+            r = c["rows"]["timing"]
+            ax[1].plot(
+                [r["sprockets"]],
+                [r["compile_s"]],
+                "s",
+                color=colours[fid],
+                mfc="none",
+                ms=9,
+                label=f"{fid}, timing drive (tensioner + guide)",
+            )
+    ax[1].set_xticks([2, 3, 5])
+    ax[1].set_ylim(0, 1.4 * top)
+    ax[1].set_xlabel("sprockets")
+    ax[1].set_ylabel("compile time of simulate [s]")
+    ax[1].set_title("compile time against the number of sprockets")
+    ax[1].legend(fontsize=8)
+    fig.suptitle(
+        f"python -m benchmarks.drives{' --quick' if res['quick'] else ''}, {res['date']}, "
+        f"{res['machine']['cpu_count']}-core CPU, load average "
+        f"{res['machine']['loadavg_at_start'][0]:.1f} at start",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> dict:
+    args = parse(parser(__doc__), argv)
+    start = time.perf_counter()
+    quick = args.quick
+    res = {
+        "study": "drives",
+        "command": "python -m benchmarks.drives" + (" --quick" if quick else ""),
+        "date": datetime.date.today().isoformat(),
+        "machine": machine_info(),
+        "quick": quick,
+        "scenes": {
+            "chain": CHAIN,
+            **{k: v for k, v in COMMON.items()},
+            "timing": {
+                "teeth": TIMING["teeth"],
+                "centres": TIMING["centres"],
+                "n_links": TIMING["n_links"],
+                "tensioner": "Tensioner(span=0, shoe_radius=0.12, damping=0.02)",
+                "guide": "Guide(span=2, length=0.12)",
+            },
+            "by_sprockets": {str(k): {**v} for k, v in BY_SPROCKETS.items()},
+        },
+        "cost": {},
+        "compile": {},
+    }
+    print("cost, lumped (Tsit5 rtol 1e-6, from the settled start):", flush=True)
+    res["cost"]["lumped"] = cost(
+        ["timing", "two_100", "two_120"], "lumped", 0.05 if quick else 1.0, 1 if quick else 3
+    )
+    print("compile time against sprockets, lumped:", flush=True)
+    names = ["sprockets_2", "sprockets_3", "sprockets_5", "timing"]
+    res["compile"]["lumped"] = compile_times(names, "lumped", 1 if quick else 3)
+    if not quick:
+        print("cost, clearance:", flush=True)
+        res["cost"]["clearance"] = cost(["timing", "two_100", "two_120"], "clearance", 0.05, 2)
+        print("compile time against sprockets, clearance:", flush=True)
+        res["compile"]["clearance"] = compile_times(names, "clearance", 3)
+    lumped = res["cost"]["lumped"]
+    same, fewer = lumped["ratios"]["timing_over_two_120"], lumped["ratios"]["timing_over_two_100"]
+    res["targets"] = {
+        "timing_wall_per_crank_rev_s": lumped["rows"]["timing"]["wall_per_rev_s"],
+        "cost_ratio_same_links": same["cost_per_simulated_s"],
+        "cost_ratio_same_links_cpu": same["cpu_per_simulated_s"],
+        "cost_ratio_100_links": fewer["cost_per_simulated_s"],
+        "cost_ratio_100_links_cpu": fewer["cpu_per_simulated_s"],
+        "cost_goal": 1.5,
+        "compile_goal": 1.5,
+    }
+    for fid, c in res["compile"].items():
+        for key in ("3_over_2", "5_over_2", "3_over_2_cpu", "5_over_2_cpu"):
+            res["targets"][f"compile_{key}_{fid}"] = c["ratios"][key]
+    if "clearance" in res["cost"]:
+        q = res["cost"]["clearance"]["ratios"]["timing_over_two_120"]
+        res["targets"]["cost_ratio_same_links_clearance"] = q["cost_per_simulated_s"]
+        res["targets"]["cost_ratio_same_links_clearance_cpu"] = q["cpu_per_simulated_s"]
+    for suffix, tail in (("wall", ""), ("cpu", "_cpu")):
+        res["targets"][f"met_{suffix}"] = bool(
+            res["targets"]["cost_ratio_same_links" + tail] <= 1.5
+            and all(
+                c["ratios"][k + tail] <= 1.5
+                for c in res["compile"].values()
+                for k in ("3_over_2", "5_over_2")
+            )
+        )
+    print(
+        "targets: "
+        + ", ".join(
+            f"{k} {v:.3g}" if isinstance(v, float) and not math.isnan(v) else f"{k} {v}"
+            for k, v in res["targets"].items()
+        ),
+        flush=True,
+    )
+    return finish(res, args.out, "drives", chart, start)
+
+
+if __name__ == "__main__":
+    main()
