@@ -221,13 +221,18 @@ def main(argv=None) -> dict:
     from .run import RunFailed, run
 
     settings, args = parse(argv)
+    # several processes (python -m jaxchain.launch -n N -m optimize, or srun): the operating
+    # points are shared among them; process 0 reports and writes, all read a checkpoint
+    jc.distributed.initialize()
+    lead = jax.process_index() == 0
     try:
         settings.validate()
-        _writable(args.out)
+        if lead:
+            _writable(args.out)
     except ValueError as e:
         raise SystemExit(f"python -m optimize: error: {e}") from None
     try:
-        return run(settings, args.out, resume=args.resume, quiet=args.quiet)
+        return run(settings, args.out, resume=args.resume, quiet=args.quiet or not lead)
     except KeyboardInterrupt:
         sys.exit(130)
     except ValueError as e:  # bad input found while setting up (e.g. a mismatched resume)

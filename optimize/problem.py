@@ -208,12 +208,25 @@ class Problem:
         """(speed factor, wear) of every ensemble member, speeds outer."""
         return [(f, e) for f in self.settings.ensemble for e in self.settings.wear]
 
+    @property
+    def shared(self) -> bool:
+        """Whether the operating points are shared among processes (JAX's multi-process
+        runtime, ``python -m jaxchain.launch -n N -m optimize``)."""
+        import jax
+
+        return jax.process_count() > 1
+
     def members(self, profile):
         law, joints = self.design_law(), self.design_joint_friction()
-        return [
-            self.build(profile, f, roller_contact=law, joint_friction=joints, wear=e)
-            for f, e in self.operating_points
-        ]
+        points = self.operating_points
+
+        def member(i):
+            f, e = points[i]
+            return self.build(profile, f, roller_contact=law, joint_friction=joints, wear=e)
+
+        if self.shared:  # each process builds its own operating points only
+            return jc.distributed.local_members(len(points), member)
+        return [member(i) for i in range(len(points))]
 
     def make_objective(self, reference: float) -> ProfileObjective:
         s = self.settings
@@ -229,6 +242,7 @@ class Problem:
             take_up=self.take_up,
             combine="max" if s.problem == "gentle" else "mean",
             throw=False,  # a failed member is reported by the run (NaN value, its message)
+            sharding="auto" if self.shared else None,
         )
         return self.objective
 

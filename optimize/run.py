@@ -178,8 +178,13 @@ def log(msg: str, quiet: bool = False) -> None:
 
 # ---------------------------------------------------------------------- the run
 def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = False) -> dict:
-    """Optimize, re-measure, write ``out``/results.json and figures; returns the results."""
+    """Optimize, re-measure, write ``out``/results.json and figures; returns the results.
+
+    Under JAX's multi-process runtime every process runs this with the same settings (the
+    objective's members shared among them, every process getting the same values): all
+    read the checkpoint on ``resume``, process 0 alone writes checkpoints and results."""
     t_wall = time.perf_counter()
+    lead = jax.process_index() == 0  # the one process that writes
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     problem = make_problem(settings)
@@ -187,6 +192,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     ck = load_checkpoint(out, settings, problem.space.size) if resume else None
     if resume and ck is None:
         log(f"--resume: no checkpoint in {out}; starting afresh", quiet)
+    jc.distributed.gather(np.zeros(1))  # several processes: all have read before any writes
     forms = iso_forms(problem)
     timing = dict(ck["timing"]) if ck else {}
 
@@ -222,6 +228,8 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         log(f"resuming after iteration {start} of {settings.iterations}", quiet)
 
     def checkpoint():
+        if not lead:
+            return
         write_atomic(
             out / CHECKPOINT,
             json.dumps(
@@ -369,9 +377,10 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "gradient_free": nm,
         "timing": timing,
     }
-    write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
-    optimized.to_dxf(out / "sprocket.dxf")
-    figures(problem, out, forms, optimized, better, history, nm, traces)
+    if lead:
+        write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
+        optimized.to_dxf(out / "sprocket.dxf")
+        figures(problem, out, forms, optimized, better, history, nm, traces)
     log(summary(results), quiet)
     return results
 
