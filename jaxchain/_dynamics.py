@@ -17,7 +17,7 @@ from jaxtyping import Array, Float
 from ._gap import gap_contact, gap_shapes
 from ._numerics import cross2, safe_norm, safe_normalize, smooth_ramp
 from ._scene import ClearanceJoints, JointFriction, LinkSprings, Scene
-from ._shoe import shoe_contacts
+from ._shoe import shoe_contacts, shoe_frames
 
 __all__ = [
     "DriveState",
@@ -218,22 +218,36 @@ def _nearest(rel, slots: int):
 
 
 def contact_slots_ok(y: DriveState, scene: Scene) -> Array:
-    """Whether every sprocket's contact slots cover every roller within reach: the
-    farthest roller checked lies beyond the tip radius + 1.05 roller radii (all tooth
-    material lies inside the tip circle), so no roller left out can touch a tooth.
-    True when every roller is checked."""
+    """Whether the contact slots of every sprocket and shoe cover every roller within
+    reach: for a sprocket, the farthest roller checked lies beyond the tip radius + 1.05
+    roller radii (all tooth material lies inside the tip circle); for a shoe, beyond half
+    its length + 1.05 roller radii from its middle (a roller touching it lies within half
+    its length of the middle along it, and within a roller radius of its face). So no
+    roller left out can touch a tooth or a shoe. True when every roller is checked."""
     xr, _, _ = _points(y.q, y.v, scene.roller_body, scene.roller_offset)
-    slots = _contact_slots(scene, xr.shape[0])
-    if slots is None:
-        return jnp.asarray(True)
     r = scene.roller_radius
-    tips = jnp.stack([s.profile.tip_diameter for s in scene.sprockets])
-    centres = jnp.stack([s.centre for s in scene.sprockets])
+    ok = jnp.asarray(True)
+    slots = _contact_slots(scene, xr.shape[0])
+    if slots is not None:
+        tips = jnp.stack([s.profile.tip_diameter for s in scene.sprockets])
+        centres = jnp.stack([s.centre for s in scene.sprockets])
 
-    def one(tip, centre):
-        return _nearest(xr - centre, slots)[1] > (tip / 2 + 1.05 * r) ** 2
+        def one(tip, centre):
+            return _nearest(xr - centre, slots)[1] > (tip / 2 + 1.05 * r) ** 2
 
-    return jnp.all(jax.vmap(one)(tips, centres))
+        ok = jnp.all(jax.vmap(one)(tips, centres))
+    sh = scene.shoes
+    if sh is not None and sh.slots is not None and sh.slots < xr.shape[0]:
+        turn, pivot, _ = shoe_frames(y, scene)
+
+        def shoe(mid, half, alpha, piv):
+            c, s = jnp.cos(alpha), jnp.sin(alpha)
+            rel = mid - piv
+            mid_now = piv + jnp.stack([c * rel[0] - s * rel[1], s * rel[0] + c * rel[1]])
+            return _nearest(xr - mid_now, sh.slots)[1] > (half + 1.05 * r) ** 2
+
+        ok = ok & jnp.all(jax.vmap(shoe)(sh.mid, sh.half_length, turn, pivot))
+    return ok
 
 
 class _PairState(NamedTuple):

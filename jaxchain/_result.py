@@ -64,9 +64,9 @@ class Result(eqx.Enumeration):
         "tolerances), or use an explicit solver for this non-stiff scene."
     )
     contact_slots_exceeded = (
-        "More rollers came within reach of a sprocket than it has contact slots "
-        "(Sprocket.contact_slots), so contacts may have been missed: rebuild the scene with "
-        "more slots, or contact_slots=None to check every roller."
+        "More rollers came within reach of a sprocket or a shoe than it has contact slots "
+        "(Sprocket.contact_slots, Shoes.slots), so contacts may have been missed: rebuild "
+        "the scene with more slots, or contact_slots=None (slots=None) to check every roller."
     )
     internal = "diffrax reported an internal failure; see the diffrax result in the stats."
     past_horizon = (

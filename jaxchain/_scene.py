@@ -305,6 +305,8 @@ class Shoes(eqx.Module):
         friction: roller/shoe friction, its fields (K,) (one per shoe), or None.
         n_tensioners: how many of the shoes ride on tensioner arms (static).
         slots: rollers checked per shoe, the nearest to its middle; None: all (static).
+            ``simulate`` reports ``Result.contact_slots_exceeded`` if the farthest slot
+            ever comes within half a shoe's length + 1.05 roller radii of its middle.
     """
 
     mid: Float[Array, "K 2"]
@@ -316,6 +318,13 @@ class Shoes(eqx.Module):
     friction: CoulombFriction | None
     n_tensioners: int = eqx.field(static=True)
     slots: int | None = eqx.field(static=True)
+
+    def __check_init__(self):
+        k = self.slots
+        if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
+            raise ValueError(
+                f"Shoes: slots must be an integer >= 1 or None (check every roller), got {k!r}"
+            )
 
     @property
     def count(self) -> int:

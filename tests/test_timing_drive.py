@@ -5,13 +5,17 @@ differentiated through the solve (against central differences on fixed steps), a
 ensemble of crank speeds (all slow: the scene settles in about 10 s and compiles its own
 solve). The slow smoke run of ``benchmarks/drives.py`` is here too."""
 
+import dataclasses
 import json
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import jaxchain as jc
+from jaxchain._dynamics import contact_slots_ok, initial_state, roller_kinematics
+from jaxchain._shoe import shoe_contacts
 from jaxchain.design import DesignSpace, ProfileObjective
 
 CHAIN = jc.ChainSpec.iso606("06B")
@@ -31,6 +35,47 @@ N_SAVE = 601
 
 def timing_drive(speed_rpm=RPM, **kw):
     return jc.scenes.drive(CHAIN, speed_rpm=speed_rpm, **{**TIMING, **kw})
+
+
+_shoe_contacts = eqx.filter_jit(shoe_contacts)  # eagerly, op by op, it takes seconds
+
+
+def _with_shoe_slots(scene, slots):
+    return eqx.tree_at(lambda s: s.shoes, scene, dataclasses.replace(scene.shoes, slots=slots))
+
+
+@pytest.fixture(scope="module")
+def unsettled():
+    return timing_drive(settle=False)
+
+
+def test_shoe_slots_are_checked(unsettled):
+    """The builder checks every roller against the shoes of a 90-link drive (cheaper than
+    picking the nearest); slots that cover the rollers within reach of each shoe pass the
+    coverage check, too few fail it (a run's result would be contact_slots_exceeded), and
+    a slot count below 1 is refused."""
+    sc = unsettled
+    assert sc.shoes.slots is None
+    y = initial_state(sc)
+    assert bool(contact_slots_ok(y, sc))
+    assert bool(contact_slots_ok(y, _with_shoe_slots(sc, 30)))
+    assert not bool(contact_slots_ok(y, _with_shoe_slots(sc, 4)))
+    with pytest.raises(ValueError, match="slots must be an integer >= 1 or None"):
+        _with_shoe_slots(sc, 0)
+
+
+@pytest.mark.slow
+def test_shoe_slots_that_cover_are_exact(unsettled):
+    """Shoe forces from 30 slots (every roller within reach) equal those from every
+    roller."""
+    sc = unsettled
+    y = initial_state(sc)
+    xr, vr = roller_kinematics(y, sc)
+    every = _shoe_contacts(y, sc, xr, vr, sc.roller_radius)
+    assert float(jnp.sum(every.normal)) > 1.0  # the tensioner's shoe presses
+    picked = _shoe_contacts(y, _with_shoe_slots(sc, 30), xr, vr, sc.roller_radius)
+    np.testing.assert_allclose(picked.normal, every.normal, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(picked.resultant, every.resultant, rtol=1e-12, atol=1e-12)
 
 
 @pytest.fixture(scope="module")

@@ -246,7 +246,9 @@ def loop_drive(
     shoes = None
     if placed:
         law = shoe_contact or shoe_law(chain, restitution)
-        shoes = assemble_shoes(placed, 0 if arms is None else 1, law, lp, lay.n_links)
+        shoes = assemble_shoes(
+            placed, 0 if arms is None else 1, law, lp, lay.rollers[:, :2], r_roller
+        )
     scene = assemble(
         bodies,
         sprockets=sprockets,
