@@ -36,12 +36,17 @@ and ends an Adam run; the failures are counted.
 Reported per dimension: each run's best value and the simulation-equivalents at which it
 found it; the simulations each method needs to reach a common target (90 % of the largest
 decrease any method found); and for each CMA-ES seed, the simulation-equivalents Adam
-needs to reach that seed's best against those CMA-ES spent on it (the speed-up).
+needs to reach that seed's best against those CMA-ES spent on it (the speed-up). And how
+far the gradient predicts the objective, at the start and at Adam's best: the value after
+steps of at most ``h`` along the steepest descent direction, ``PROBE_STEPS``, against the
+first-order prediction (``--probes-only`` re-measures these on the rows of an existing
+``methods.json``).
 """
 
 from __future__ import annotations
 
 import datetime
+import json
 import math
 import time
 
@@ -60,6 +65,7 @@ LEARNING_RATE = 1.0  # Adam's step in u (the sigmoid coordinate of each box)
 SIGMA0 = 1.0  # CMA-ES's initial step size in u
 TARGET_FRACTION = 0.9  # the common target: this fraction of the largest decrease found
 FAILED = 1e6  # the value a gradient-free method sees for a failed solve [N]
+PROBE_STEPS = (1e-3, 1e-2, 0.1, 1.0)  # steps along the descent direction (largest |Δu|)
 
 
 def plan(quick: bool) -> dict:
@@ -196,6 +202,31 @@ def nelder_mead(obj, u0, budget: float) -> dict:
     return tr.result("Nelder-Mead", None, wall, stop=stop)
 
 
+def probe(obj, u) -> dict:
+    """How far the gradient at ``u`` predicts the objective: the value along the steepest
+    descent direction d = −g/max|g| (steps of at most ``h`` in every coordinate) against
+    the first-order prediction, ``PROBE_STEPS``."""
+    value, grad, _ = obj.value_and_grad(jnp.asarray(u))
+    g, value = np.asarray(grad), float(value)
+    d = -g / np.abs(g).max()
+    slope = float(g @ d)
+    steps = []
+    for h in PROBE_STEPS:
+        fh = float(obj.value(jnp.asarray(u + h * d))[0])
+        steps.append({"h": h, "value_N": fh, "secant_slope": (fh - value) / h})
+    return {"value_N": value, "grad_norm": float(np.linalg.norm(g)), "slope": slope,
+            "steps": steps}  # fmt: skip
+
+
+def add_probes(row: dict, obj) -> None:
+    """The gradient's reach at the start and at Adam's best (into ``row``)."""
+    adam_u = np.asarray(next(r for r in row["runs"] if r["method"] == "Adam")["best_u"])
+    row["probe"] = {
+        "start": probe(obj, np.zeros(row["dimension"])),
+        "adam_best": probe(obj, adam_u),
+    }
+
+
 def sims_to_reach(curve: list, target: float) -> float | None:
     """Simulation-equivalents at which a best-so-far curve first reaches ``target``."""
     return next((s for s, b in curve if b <= target), None)
@@ -263,6 +294,7 @@ def study(name: str, space, budget: float, seeds, repeats: int) -> dict:
         "runs": runs,
     }
     analyse(row)
+    add_probes(row, obj)
     return row
 
 
@@ -303,8 +335,24 @@ def chart(results: dict, path) -> None:
 
 
 def main(argv=None) -> dict:
-    args = parse(parser(__doc__), argv)
+    ap = parser(__doc__)
+    ap.add_argument(
+        "--probes-only", action="store_true",
+        help="only (re)measure the gradient probes of the rows in OUT/methods.json",
+    )  # fmt: skip
+    args = parse(ap, argv)
     start = time.perf_counter()
+    if args.probes_only:
+        results = json.loads((args.out / "methods.json").read_text())
+        spaces = gradient_cost.spaces()
+        for row in results["rows"]:
+            add_probes(row, gradient_cost.objective(spaces[row["space"]], throw=False))
+        results["probes_command"] = "python -m benchmarks.methods --probes-only"
+        results["probes_date"] = datetime.date.today().isoformat()
+        results["probes_s"] = time.perf_counter() - start
+        (args.out / "methods.json").write_text(json.dumps(results, indent=1))
+        chart(results, args.out / "methods.png")
+        return results
     p = plan(args.quick)
     spaces = gradient_cost.spaces()
     rows = [
