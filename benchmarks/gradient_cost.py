@@ -44,6 +44,7 @@ Z, RPM = 18, 1000.0
 PERIOD = 60.0 / (Z * RPM)
 LAW = jc.scenes.roller_law(CHAIN, 0.7, width=3e-6)
 JOINTS = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
+DT = 4e-6  # the fixed step [s]
 
 
 def spaces() -> dict[str, DesignSpace]:
@@ -85,17 +86,17 @@ def _best(f, repeats: int) -> float:
     return min(times)
 
 
-def objective(space: DesignSpace, **kwargs) -> ProfileObjective:
-    """The design objective of the study (module docstring) over ``space``; ``kwargs``
-    go to :class:`ProfileObjective` (e.g. ``throw=False``)."""
+def objective(space: DesignSpace, *, dt: float = DT, **kwargs) -> ProfileObjective:
+    """The design objective of the study (module docstring) over ``space``, fixed steps
+    of ``dt``; ``kwargs`` go to :class:`ProfileObjective` (e.g. ``throw=False``)."""
     return ProfileObjective(
         space, build, t1=2 * PERIOD, t_start=PERIOD, temperature=20.0, reference=1500.0,
-        dt=4e-6, **kwargs,
+        dt=dt, **kwargs,
     )  # fmt: skip
 
 
-def measure(space: DesignSpace, repeats: int, seed: int = 0) -> dict:
-    obj = objective(space)
+def measure(space: DesignSpace, repeats: int, seed: int = 0, dt: float = DT) -> dict:
+    obj = objective(space, dt=dt)
     u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
     scenes = obj.scenes(u)
     t = time.perf_counter()
