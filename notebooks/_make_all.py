@@ -1,8 +1,8 @@
-"""Regenerate the four notebooks from their scripts (``notebooks/_make_0N_<name>.py``)
+"""Regenerate the notebooks from their scripts (``notebooks/_make_0N_<name>.py``)
 and, with ``--execute``, execute them in full mode in place, storing the outputs (the form
 the notebooks are committed in). Run from anywhere:
 
-    .venv/bin/python notebooks/_make_all.py --execute      # all four
+    .venv/bin/python notebooks/_make_all.py --execute      # all of them
     .venv/bin/python notebooks/_make_all.py --execute 03   # notebook 03 only
     .venv/bin/python notebooks/_make_all.py                # regenerate, without outputs
 
@@ -65,7 +65,7 @@ def execute(path: Path) -> float:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--execute", action="store_true", help="execute in full mode, in place")
-    ap.add_argument("numbers", nargs="*", help="notebook numbers (01 … 04); default all")
+    ap.add_argument("numbers", nargs="*", help="notebook numbers (01, 02, …); default all")
     args = ap.parse_args(argv)
     sys.path.insert(0, str(HERE))  # the generators import _write
     paths = [importlib.import_module(name).main() for name in generators(args.numbers)]
