@@ -202,10 +202,12 @@ def nelder_mead(obj, u0, budget: float) -> dict:
     return tr.result("Nelder-Mead", None, wall, stop=stop)
 
 
-def probe(obj, u) -> dict:
+def probe(obj, u, fine) -> dict:
     """How far the gradient at ``u`` predicts the objective: the value along the steepest
     descent direction d = −g/max|g| (steps of at most ``h`` in every coordinate) against
-    the first-order prediction, ``PROBE_STEPS``."""
+    the first-order prediction, ``PROBE_STEPS``; and the same points on ``fine`` (the
+    objective at half the step), which tells the roughness of the discrete map from the
+    model's."""
     value, grad, _ = obj.value_and_grad(jnp.asarray(u))
     g, value = np.asarray(grad), float(value)
     d = -g / np.abs(g).max()
@@ -214,16 +216,19 @@ def probe(obj, u) -> dict:
     for h in PROBE_STEPS:
         fh = float(obj.value(jnp.asarray(u + h * d))[0])
         steps.append({"h": h, "value_N": fh, "secant_slope": (fh - value) / h})
+    half = [float(fine.value(jnp.asarray(u + h * d))[0]) for h in (0.0, *PROBE_STEPS)]
     return {"value_N": value, "grad_norm": float(np.linalg.norm(g)), "slope": slope,
-            "steps": steps}  # fmt: skip
+            "steps": steps, "half_step_values_N": half}  # fmt: skip
 
 
-def add_probes(row: dict, obj) -> None:
+def add_probes(row: dict, space, dt: float) -> None:
     """The gradient's reach at the start and at Adam's best (into ``row``)."""
+    obj = gradient_cost.objective(space, dt=dt, throw=False)
+    fine = gradient_cost.objective(space, dt=dt / 2, throw=False)
     adam_u = np.asarray(next(r for r in row["runs"] if r["method"] == "Adam")["best_u"])
     row["probe"] = {
-        "start": probe(obj, np.zeros(row["dimension"])),
-        "adam_best": probe(obj, adam_u),
+        "start": probe(obj, np.zeros(row["dimension"]), fine),
+        "adam_best": probe(obj, adam_u, fine),
     }
 
 
@@ -258,11 +263,11 @@ def analyse(row: dict) -> None:
     }
 
 
-def study(name: str, space, budget: float, seeds, repeats: int) -> dict:
-    cost = gradient_cost.measure(space, repeats)
+def study(name: str, space, budget: float, seeds, repeats: int, dt: float) -> dict:
+    cost = gradient_cost.measure(space, repeats, dt=dt)
     ratio = cost["ratio"]
     print(f"dimension {space.size}: value+gradient / value = {ratio:.2f}", flush=True)
-    obj = gradient_cost.objective(space, throw=False)
+    obj = gradient_cost.objective(space, dt=dt, throw=False)
     u0 = jnp.zeros(space.size)
     start = float(obj.value(u0)[0])
     runs = []
@@ -294,7 +299,7 @@ def study(name: str, space, budget: float, seeds, repeats: int) -> dict:
         "runs": runs,
     }
     analyse(row)
-    add_probes(row, obj)
+    add_probes(row, space, dt)
     return row
 
 
@@ -338,33 +343,65 @@ def main(argv=None) -> dict:
     ap = parser(__doc__)
     ap.add_argument(
         "--probes-only", action="store_true",
-        help="only (re)measure the gradient probes of the rows in OUT/methods.json",
+        help="only (re)measure the gradient probes of the rows in OUT/NAME.json",
     )  # fmt: skip
+    ap.add_argument(
+        "--dt",
+        type=float,
+        default=gradient_cost.DT,
+        help="fixed step of the objective's solves [s] (default %(default)s)",
+    )
+    ap.add_argument(
+        "--dimensions", default=None, help="comma-separated subset of 4,36,72 (default: the plan's)"
+    )
+    ap.add_argument(
+        "--seeds", type=int, default=None, help="CMA-ES seeds 1..SEEDS (default: the plan's)"
+    )
+    ap.add_argument("--name", default="methods", help="results' file name (default %(default)s)")
+    # fmt: skip
     args = parse(ap, argv)
     start = time.perf_counter()
     if args.probes_only:
-        results = json.loads((args.out / "methods.json").read_text())
+        results = json.loads((args.out / f"{args.name}.json").read_text())
         spaces = gradient_cost.spaces()
         for row in results["rows"]:
-            add_probes(row, gradient_cost.objective(spaces[row["space"]], throw=False))
+            add_probes(row, spaces[row["space"]], results["settings"].get("dt", gradient_cost.DT))
         results["probes_command"] = "python -m benchmarks.methods --probes-only"
         results["probes_date"] = datetime.date.today().isoformat()
         results["probes_s"] = time.perf_counter() - start
-        (args.out / "methods.json").write_text(json.dumps(results, indent=1))
-        chart(results, args.out / "methods.png")
+        (args.out / f"{args.name}.json").write_text(json.dumps(results, indent=1))
+        chart(results, args.out / f"{args.name}.png")
         return results
     p = plan(args.quick)
+    if args.dimensions:
+        p["dimensions"] = tuple(d for d in args.dimensions.split(",") if d in p["budget"])
+        if not p["dimensions"]:
+            raise SystemExit(f"--dimensions: choose from {','.join(p['budget'])}")
+    if args.seeds is not None:
+        p["seeds"] = tuple(range(1, args.seeds + 1))
     spaces = gradient_cost.spaces()
     rows = [
-        study(name, spaces[name], p["budget"][name], p["seeds"], p["repeats"])
+        study(name, spaces[name], p["budget"][name], p["seeds"], p["repeats"], args.dt)
         for name in p["dimensions"]
     ]
     results = {
         "study": "methods",
-        "command": "python -m benchmarks.methods" + (" --quick" if args.quick else ""),
+        "command": "python -m benchmarks.methods"
+        + "".join(
+            f" {flag}"
+            for flag, on in (
+                ("--quick", args.quick),
+                (f"--dt {args.dt:g}", args.dt != gradient_cost.DT),
+                (f"--dimensions {args.dimensions}", args.dimensions),
+                (f"--seeds {args.seeds}", args.seeds is not None),
+                (f"--name {args.name}", args.name != "methods"),
+            )
+            if on
+        ),
         "date": datetime.date.today().isoformat(),
         "machine": machine_info(),
         "settings": {
+            "dt": args.dt,
             "learning_rate": LEARNING_RATE,
             "sigma0": SIGMA0,
             "target_fraction": TARGET_FRACTION,
@@ -372,7 +409,7 @@ def main(argv=None) -> dict:
         },  # fmt: skip
         "rows": rows,
     }
-    return finish(results, args.out, "methods", chart, start)
+    return finish(results, args.out, args.name, chart, start)
 
 
 if __name__ == "__main__":
