@@ -137,11 +137,10 @@ def _exit_handling() -> None:
 
 
 def lost_peer(kind: type, value: BaseException) -> bool:
-    """Whether an exception is a collective failing because another process is gone."""
+    """Whether an exception is a collective failing because another process is gone (JAX
+    raises it as a ``JaxRuntimeError`` or a ``ValueError``, depending on the call)."""
     text = str(value)
-    return kind.__name__ == "JaxRuntimeError" and any(
-        w in text for w in ("Gloo", "by peer", "coordination service", "heartbeat")
-    )
+    return any(w in text for w in ("Gloo", "by peer", "coordination service", "heartbeat"))
 
 
 def _exit_now(hook, kind, value, tb):
