@@ -63,51 +63,30 @@ def profile(design: str):
 
     chain = jc.ChainSpec.iso606(CHAIN)
     iso = {f: jc.ToothProfile.iso606(chain, Z, f) for f in ("min", "max")}
-    if design == "iso_min":
-        return jc.FreeformProfile.from_iso(iso["min"], 2)
-    if design == "iso_max":
-        return jc.FreeformProfile.from_iso(iso["max"], 2)
+    if design in ("iso_min", "iso_max"):
+        return jc.FreeformProfile.from_iso(iso[design[4:]], 2)
+    if design not in DESIGNS:
+        raise ValueError(f"design must be one of {DESIGNS}, got {design!r}")
     tip = jc.iso606_limits(chain, Z)["tip_diameter"][0]
-    base = jc.FreeformProfile.from_iso(iso["min"], 2, tip_diameter=tip)
+    start = jc.FreeformProfile.from_iso(iso["min"], 2, tip_diameter=tip)
     rng = np.random.default_rng(0)
+    deg = math.radians
     if design == "gentle":
         p = json.loads(GENTLE.read_text())["optimized"]["params"]
-        return jc.FreeformProfile(
-            teeth=Z,
-            pitch=base.pitch,
-            roller_diameter=base.roller_diameter,
+        changes = dict(
             seating_radius=p["seating_radius"],
-            tip_diameter=tip,
-            cw=jc.Flank(p["cw.seat_angle"], p["cw.curvature"], base.cw.breaks),
-            ccw=jc.Flank(p["ccw.seat_angle"], p["ccw.curvature"], base.ccw.breaks),
+            cw=jc.Flank(p["cw.seat_angle"], p["cw.curvature"], start.cw.breaks),
+            ccw=jc.Flank(p["ccw.seat_angle"], p["ccw.curvature"], start.ccw.breaks),
         )
-    if design == "random_radius":
+    elif design == "random_radius":
         lo, hi = (float(iso[f].seating_radius) for f in ("min", "max"))
-        return _with(base, seating_radius=rng.uniform(lo, hi, Z))
-    if design == "random_flanks":
-        deg = math.radians
-        cw = jc.Flank(rng.uniform(deg(62), deg(78), Z), base.cw.curvature, base.cw.breaks)
-        ccw = jc.Flank(rng.uniform(deg(57), deg(68), Z), base.ccw.curvature, base.ccw.breaks)
-        return _with(base, cw=cw, ccw=ccw)
-    raise ValueError(f"design must be one of {DESIGNS}, got {design!r}")
-
-
-def _with(p, **changes):
-    """``p`` with some fields changed (validated anew by the constructor)."""
-    import jaxchain as jc
-
-    fields = dict(
-        teeth=p.teeth,
-        pitch=p.pitch,
-        roller_diameter=p.roller_diameter,
-        seating_radius=p.seating_radius,
-        seat_offset=p.seat_offset,
-        phase=p.phase,
-        tip_diameter=p.tip_diameter,
-        cw=p.cw,
-        ccw=p.ccw,
-    )
-    return jc.FreeformProfile(**(fields | changes))
+        changes = dict(seating_radius=rng.uniform(lo, hi, Z))
+    else:  # random_flanks
+        changes = dict(
+            cw=jc.Flank(rng.uniform(deg(62), deg(78), Z), start.cw.curvature, start.cw.breaks),
+            ccw=jc.Flank(rng.uniform(deg(57), deg(68), Z), start.ccw.curvature, start.ccw.breaks),
+        )
+    return jc.FreeformProfile.from_iso(iso["min"], 2, tip_diameter=tip, **changes)
 
 
 def solve(design: str, rpm: float, revs: float) -> dict:

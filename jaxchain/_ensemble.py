@@ -542,23 +542,35 @@ def simulate_ensemble(
         merged = jax.tree_util.tree_map(
             lambda x: jax.device_put(x, spread) if eqx.is_array(x) else x, merged
         )
-    saved, result, stats = merged.saved, merged.result, merged.stats
-    if throw:
-        saved = raise_if_failed(result, saved, "simulate_ensemble")
-    return EnsembleSolution(
-        ts=tsa,
-        peak_contact_force=peak_of(saved, merged.observed[0]),
-        result=result,
-        stats=stats,
-        y1=merged.y1,
-        steps=stats["num_steps"],
-        accepted_steps=stats["num_accepted_steps"],
-        steps_executed=executed,
-        waste=executed / jnp.sum(stats["num_steps"]),
+    return _solution(
+        merged,
+        tsa,
+        executed,
+        throw,
         predicted_steps=None if predicted is None else jnp.asarray(predicted),
         groups=tuple(tuple(int(i) for i in g) for g in groups),
         batch_sizes=tuple(sizes),
         n_devices=n_dev,
+    )
+
+
+def _solution(out, ts, executed, throw: bool, **layout) -> EnsembleSolution:
+    """The ensemble's solution from its merged batch output ``out`` (raising on a failed
+    member if ``throw``); ``layout``: how the members were batched."""
+    saved, result, stats = out.saved, out.result, out.stats
+    if throw:
+        saved = raise_if_failed(result, saved, "simulate_ensemble")
+    return EnsembleSolution(
+        ts=ts,
+        peak_contact_force=peak_of(saved, out.observed[0]),
+        result=result,
+        stats=stats,
+        y1=out.y1,
+        steps=stats["num_steps"],
+        accepted_steps=stats["num_accepted_steps"],
+        steps_executed=executed,
+        waste=executed / jnp.sum(stats["num_steps"]),
+        **layout,
         **saved,
     )
 
@@ -574,22 +586,13 @@ def _across_processes(local, sp, dt0, args: _Args, mesh: Mesh, throw: bool):
     per = sp.padded // n_dev
     executed = per * jnp.sum(jnp.max(out.stats["num_steps"].reshape(n_dev, per), axis=1))
     out = _take(out, np.arange(m))
-    saved, result, stats = out.saved, out.result, out.stats
-    if throw:
-        saved = raise_if_failed(result, saved, "simulate_ensemble")
-    return EnsembleSolution(
-        ts=args.ts,
-        peak_contact_force=peak_of(saved, out.observed[0]),
-        result=result,
-        stats=stats,
-        y1=out.y1,
-        steps=stats["num_steps"],
-        accepted_steps=stats["num_accepted_steps"],
-        steps_executed=executed,
-        waste=executed / jnp.sum(stats["num_steps"]),
+    return _solution(
+        out,
+        args.ts,
+        executed,
+        throw,
         predicted_steps=None,
         groups=(tuple(range(m)),),
         batch_sizes=(sp.padded,),
         n_devices=n_dev,
-        **saved,
     )

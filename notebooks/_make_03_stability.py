@@ -14,7 +14,7 @@ form they are committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import CACHE, X64, write
+from _write import BENCHMARKS, CACHE, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -45,11 +45,8 @@ import jax
 import jaxchain as jc
 """
         + CACHE
-        + """
-root = Path(jc.__file__).resolve().parents[1]  # the repository, for benchmarks/
-if (root / "benchmarks").is_dir() and str(root) not in sys.path:
-    sys.path.insert(0, str(root))
-from benchmarks import stability as st
+        + BENCHMARKS
+        + """from benchmarks import stability as st
 
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
 print("fast mode" if FAST else "full mode")"""

@@ -15,7 +15,7 @@ executes it in full mode, storing the outputs (the form it is committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import CACHE, X64, write
+from _write import BENCHMARKS, CACHE, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -57,11 +57,8 @@ import jaxchain as jc
 from jaxchain.observers import BandLevel, OrderSpectrum
 """
         + CACHE
-        + """
-root = Path(jc.__file__).resolve().parents[1]  # the repository, for benchmarks/
-if (root / "benchmarks").is_dir() and str(root) not in sys.path:
-    sys.path.insert(0, str(root))
-from benchmarks import quiet_drive as qd
+        + BENCHMARKS
+        + """from benchmarks import quiet_drive as qd
 
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
 print("fast mode" if FAST else "full mode")"""

@@ -21,6 +21,13 @@ jax.config.update(
 )
 """
 
+# notebooks that read or run a study import it from the repository's benchmarks/
+BENCHMARKS = """
+root = Path(jc.__file__).resolve().parents[1]  # the repository, for benchmarks/
+if (root / "benchmarks").is_dir() and str(root) not in sys.path:
+    sys.path.insert(0, str(root))
+"""
+
 
 def write(cells, name: str) -> Path:
     """Write the notebook without outputs. Cell ids are the cells' positions
