@@ -1,6 +1,6 @@
 """Gradients against gradient-free methods at 4, 36 and 72 design coordinates.
 
-    python -m benchmarks.methods            # full study (~25 min on 2 cores)
+    python -m benchmarks.methods            # full study (35 min on 2 busy cores)
     python -m benchmarks.methods --quick    # smoke run (4 and 36 coordinates, small budget)
 
 Writes ``benchmarks/results/methods.json`` and ``methods.png`` (best objective so far
@@ -334,7 +334,11 @@ def chart(results: dict, path) -> None:
         ax.set_title(f"{row['dimension']} coordinates ({row['live_coordinates']} live)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle("Gradients against gradient-free methods (08B engagement, z = 18)")
+    dt = results["settings"].get("dt", gradient_cost.DT)
+    fig.suptitle(
+        f"Gradients against gradient-free methods (08B engagement, z = 18, fixed "
+        f"{dt * 1e6:g} µs steps)"
+    )
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
