@@ -38,6 +38,7 @@ import datetime
 import json
 import math
 import os
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -200,7 +201,9 @@ def chart(results: dict, path: Path) -> None:
     ax[1].set(xlabel="driver speed [rpm]", ylabel="peak roller/tooth force [N]", title="Peak force")
     if "iso_min" in summ:
         rpm = summ["iso_min"]["signals"][sig]["worst_rpm"]
-        for d in ("iso_min", min(summ, key=lambda d: summ[d]["signals"][sig]["worst_dB"])):
+        others = [d for d in summ if d != "iso_min"]
+        best = min(others, key=lambda d: summ[d]["signals"][sig]["worst_dB"], default=None)
+        for d in ("iso_min", best) if best else ("iso_min",):
             r = next(r for r in rows if r["design"] == d and r["rpm"] == rpm)
             lv = 20 * np.log10(np.maximum(np.asarray(r[sig]), 1e-3))
             ax[2].plot(ORDERS[1:], lv[1:], ".-", label=f"{d} at {rpm:.0f} rpm")
@@ -237,12 +240,30 @@ def main(argv=None) -> dict:
     ap = parser(__doc__, "two designs, one speed, a short window")
     ap.add_argument("--processes", type=int, default=max(1, (os.cpu_count() or 2) - 1))
     ap.add_argument("--revs", type=float, default=2.3, help="driver revolutions per solve")
+    ap.add_argument(
+        "--designs", default=",".join(DESIGNS), help="comma-separated (default: %(default)s)"
+    )
+    ap.add_argument(
+        "--speeds",
+        default=",".join(f"{s:g}" for s in SPEEDS),
+        help="driver speeds [rpm], comma-separated (default: %(default)s)",
+    )
     args = parse(ap, argv)
     if args.processes < 1:
         raise SystemExit(f"--processes must be ≥ 1, got {args.processes}")
     if args.revs <= 0.5:
         raise SystemExit(f"--revs must exceed 0.5 (the window starts at 0.25), got {args.revs}")
-    designs, speeds, revs = DESIGNS, SPEEDS, args.revs
+    designs = tuple(d.strip() for d in args.designs.split(","))
+    bad = [d for d in designs if d not in DESIGNS]
+    if bad:
+        raise SystemExit(f"--designs: unknown {bad}; choose from {', '.join(DESIGNS)}")
+    try:
+        speeds = tuple(float(v) for v in args.speeds.split(","))
+    except ValueError:
+        raise SystemExit(f"--speeds must be numbers [rpm], got {args.speeds!r}") from None
+    if not all(100.0 <= v <= 5000.0 for v in speeds):
+        raise SystemExit(f"--speeds must lie in 100–5000 rpm, got {args.speeds}")
+    revs = args.revs
     if args.quick:
         designs, speeds, revs = ("iso_min", "random_radius"), (1000.0,), 0.6
     settings = {"designs": list(designs), "speeds": list(speeds), "revs": revs}
@@ -271,9 +292,7 @@ def main(argv=None) -> dict:
                 f"{row['num_steps']} steps, {row['solve_s']:.0f} s, peak {row['peak_N']:.0f} N"
             )
     results = {
-        "command": "python -m benchmarks.quiet_drive"
-        + (" --quick" if args.quick else "")
-        + f" --processes {args.processes}",
+        "command": " ".join(["python -m benchmarks.quiet_drive", *(argv or sys.argv[1:])]),
         "date": datetime.date.today().isoformat(),
         "machine": machine_info(),
         "settings": settings | {"processes": args.processes, "orders": ORDERS.tolist()},

@@ -164,9 +164,12 @@ fig.tight_layout()"""
         """## 4. What bounds a per-tooth pattern
 
 * At **1000 rpm** the uniform ISO minimum form sits on a resonance: its second mesh
-  harmonic (600 Hz) builds up and stands 8–11 dB above its neighbouring speeds. Any other
-  driver detunes it. An objective sampled at a few speeds can win by moving a resonance
-  between its samples; sample the band densely.
+  harmonic (600 Hz) builds up and stands about 10 dB above its level 3 % slower or
+  faster. The other drivers miss it on this grid, but they have resonances of their own:
+  on a 31.25 rpm grid (`benchmarks/results/quiet_drive_fine/`) the free-form tooth peaks
+  at 968.75 rpm with 48.4 dB, above the ISO form's worst here. So the differences in the
+  worst line above are sampling, not design: an objective sampled at a few speeds can win
+  by moving a resonance between its samples. Sample the band a few percent apart.
 * At **1500 rpm** the mesh line itself is within about 1.4 dB for every driver but the ISO
   maximum form. Spreading it takes a tooth-to-tooth shift in the *timing* of the
   polygonal action, and a chain of fixed pitch allows neighbouring seats to differ only
@@ -186,10 +189,10 @@ print(f"radial play {play * 1e6:.0f} µm per seat; seat shift ±{amplitude * 1e3
       f"(ideal spread over 18 lines: {10 * math.log10(18):.1f} dB)")"""
     ),
     new_markdown_cell(
-        """What remains for the tooth shape is the impact part of the lines and the peak
-force: the free-form `gentle` tooth of `python -m optimize` is 14 % below the ISO minimum
-form's worst peak and 2.7 dB below its worst line over the band. The study's section in
-`benchmarks/README.md` gives the table."""
+        """What remains for the tooth shape is the impact part of the lines and the peak force:
+the free-form `gentle` tooth of `python -m optimize` is 14 % below the ISO minimum form's
+worst peak over the band. The study's section in `benchmarks/README.md` gives the
+tables."""
     ),
 ]
 

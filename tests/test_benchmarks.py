@@ -123,3 +123,17 @@ def test_quiet_drive_benchmark_quick(tmp_path):
     assert summ["iso_min"]["vs_iso_min"]["worst_peak"] == 0.0
     assert (tmp_path / "quiet_drive.png").stat().st_size > 10_000
     assert not (tmp_path / "quiet_drive.partial.json").exists()
+
+
+def test_quiet_drive_refuses_bad_options(tmp_path):
+    from benchmarks.quiet_drive import main
+
+    for argv, match in [
+        (["--designs", "iso_min,square"], "unknown"),
+        (["--speeds", "1000,fast"], "numbers"),
+        (["--speeds", "50"], "100–5000"),
+        (["--revs", "0.4"], "exceed 0.5"),
+        (["--processes", "0"], "≥ 1"),
+    ]:
+        with pytest.raises(SystemExit, match=match):
+            main([*argv, "--out", str(tmp_path)])
