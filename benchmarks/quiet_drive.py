@@ -6,8 +6,8 @@
 
 Writes ``benchmarks/results/quiet_drive.json`` and ``quiet_drive.png``. Each solve runs in
 a process of its own (single-threaded XLA), so ``--processes`` spreads the study over the
-cores of a machine; finished solves are kept in ``quiet_drive.partial.json`` and a rerun
-with the same settings skips them.
+cores of a machine; finished solves are kept in ``quiet_drive.partial.json`` (written
+atomically: a kill never leaves half a file) and a rerun with the same settings skips them.
 
 Scene: 08B chain, 60 links, driver z = 18 (the sprocket designed) and a uniform ISO 606
 minimum-form z = 36, 40 N·m load, 300 N pretension, lumped chain with joint friction,
@@ -236,6 +236,7 @@ def _worker_env() -> None:
 
 def main(argv=None) -> dict:
     from benchmarks.work_precision import machine_info
+    from optimize.run import write_atomic
 
     ap = parser(__doc__, "two designs, one speed, a short window")
     ap.add_argument("--processes", type=int, default=max(1, (os.cpu_count() or 2) - 1))
@@ -286,7 +287,7 @@ def main(argv=None) -> dict:
         for f in as_completed(futures):
             row = f.result()
             rows.append(row)
-            partial.write_text(json.dumps({"settings": settings, "runs": rows}))
+            write_atomic(partial, json.dumps({"settings": settings, "runs": rows}))
             print(
                 f"  {row['design']:14s} {row['rpm']:6.0f} rpm: {row['result']}, "
                 f"{row['num_steps']} steps, {row['solve_s']:.0f} s, peak {row['peak_N']:.0f} N"
