@@ -137,3 +137,26 @@ def test_quiet_drive_refuses_bad_options(tmp_path):
     ]:
         with pytest.raises(SystemExit, match=match):
             main([*argv, "--out", str(tmp_path)])
+
+
+@pytest.mark.slow
+def test_tolerance_benchmark_quick(tmp_path):
+    from benchmarks.tolerance import main
+
+    res = main(["--quick", "--processes", "1", "--out", str(tmp_path)])
+    summ, main_job = res["summary"], res["main_job"]
+    # δ = 0 reproduces the main job's re-measured peaks (its worst operating point)
+    assert summ["nominal"]["iso_min"]["peak_N"] == pytest.approx(main_job["iso_min_N"], rel=1e-4)
+    assert summ["nominal"]["optimized"]["peak_N"] == pytest.approx(
+        main_job["optimized_N"], rel=1e-4
+    )
+    row = summ["tolerance"]["20"]
+    for d in ("iso_min", "optimized"):
+        assert row[d]["n"] == 2 and not (row[d]["invalid"] or row[d]["failed"])
+        assert 0.5 * main_job["optimized_N"] < row[d]["median_N"] < 2 * main_job["iso_min_N"]
+    assert 0 <= row["optimized_below_iso_nominal"] <= 1 and row["paired"]["n"] == 2
+    # the seating radius offset moves the seat by δ
+    dev = res["outline_deviation_um"]["20"]["iso_min"]
+    assert dev["seating_radius"] == pytest.approx(20.0, rel=0.02)
+    assert (tmp_path / "tolerance.png").stat().st_size > 10_000
+    assert not (tmp_path / "tolerance.partial.json").exists()
