@@ -109,6 +109,39 @@ def test_static_equilibrium_of_drive(small_drive):
     assert dt_lo * r1 * math.cos(math.pi / 9) <= tau1 <= dt_hi * r1
 
 
+def test_worn_chain_rides_higher_and_moves_the_take_up(small_drive):
+    """A chain worn 2 % longer on the same sprockets (``elongation``): still a static
+    equilibrium carrying the load; its rollers ride up the gaps, the highest by the worn
+    polygon's radius gain Δp/(2 sin(π/z)); the longer loop moves the take-up out by at
+    most half the extra length and at least that less the wraps' extra half-circumference."""
+    e, z1, z2 = 0.02, 9, 18
+    worn = jc.scenes.drive(
+        "08B", teeth=(z1, z2), n_links=40, speed_rpm=600, load_torque=10.0,
+        pretension=300.0, elongation=e,
+    )  # fmt: skip
+    y = initial_state(worn)
+    y = y._replace(v=jnp.zeros_like(y.v), omega=jnp.zeros_like(y.omega))
+    fr = forces(0.0, y, worn)
+    assert float(jnp.max(jnp.abs(fr.body))) < 1e-3
+    np.testing.assert_allclose(float(fr.sprocket_torque[1]), 10.0, rtol=1e-6)
+    p = jc.ChainSpec.iso606("08B").pitch
+    gain = [e * p / (2 * math.sin(math.pi / z)) for z in (z1, z2)]
+
+    def rise(sc, k):
+        x = np.asarray(initial_state(sc).q[:, :2]) - np.asarray(sc.sprockets[k].centre)
+        r = np.hypot(*x.T) - float(sc.sprockets[k].profile.pitch_radius)
+        return r[r < 2e-3]  # the rollers on the wrap
+
+    for k in (0, 1):
+        new, old = rise(worn, k), rise(small_drive, k)
+        assert len(new) == len(old)
+        np.testing.assert_allclose(new.max() - old.max(), gain[k], rtol=0.25)
+        assert 0.5 * gain[k] < new.mean() - old.mean() < gain[k]
+    extra = 40 * e * p
+    dc = float(worn.sprockets[1].centre[0] - small_drive.sprockets[1].centre[0])
+    assert extra / 2 - math.pi * sum(gain) / 2 < dc < extra / 2
+
+
 def test_internal_forces_cancel(small_drive):
     """Action = reaction: at any state, the forces on all bodies and on all sprocket axes sum
     to zero (force and moment), since every element acts between two of them."""

@@ -25,6 +25,7 @@ from .common import (
     contact_slots,
     disc_inertia,
     stretch_of,
+    worn,
 )
 from .layout import closed_drive_layout, transport_velocity
 from .loop_drive import loop_drive
@@ -46,6 +47,7 @@ def drive(
     speed_rpm: float = 1000.0,
     load_torque: float | Sequence[float] = 20.0,
     pretension: float = 200.0,
+    elongation: float = 0.0,
     fidelity: Literal["lumped", "clearance"] = "lumped",
     form: Literal["min", "max", "mid"] = "mid",
     profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
@@ -114,6 +116,10 @@ def drive(
         load_torque: resisting torque [N·m], ≥ 0, on every driven sprocket (a scalar) or
             one per driven sprocket.
         pretension: chain tension at rest [N], ≥ 0.
+        elongation: the chain's wear, 0–0.03: its pitch is p·(1 + elongation) while the
+            sprockets stay cut for p (ISO 606 tooth forms tolerate about 0.03). The worn
+            chain rides higher in the gaps and is longer: with ``n_links`` given, the
+            take-up moves out by what the longer loop needs.
         fidelity: "lumped" (rollers + elastic links) or "clearance" (rigid links,
             pin/bush and bush/roller clearance joints).
         form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
@@ -145,6 +151,9 @@ def drive(
             :func:`~jaxchain.scenes.shoe_law`: polyamide face).
     """
     chain = as_chain(chain)
+    elongation = checks.real(
+        "elongation", elongation, lo=0.0, hi=0.03, unit="(fraction of the pitch; 0.01 = 1 % wear)"
+    )
     speed_rpm = check_common(
         speed_rpm=speed_rpm,
         fidelity=fidelity,
@@ -211,6 +220,7 @@ def drive(
             roller_contact=roller_contact,
             settle=settle,
             link_damping=link_damping,
+            elongation=elongation,
             **with_shoes,
         )
     given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
@@ -260,9 +270,11 @@ def drive(
     )
     if centre_distance is None and n_links is None:
         centre_distance = 40 * chain.pitch
+    pitch = chain.pitch  # the sprockets are cut for the unworn pitch
+    chain = worn(chain, elongation)
     stretch = stretch_of(chain, fidelity, pretension)
     lay = closed_drive_layout(
-        chain.pitch,
+        pitch,
         z1,
         z2,
         centre_distance=centre_distance,

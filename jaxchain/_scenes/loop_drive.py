@@ -22,6 +22,7 @@ from .common import (
     contact_slots,
     disc_inertia,
     stretch_of,
+    worn,
 )
 from .layout import _pitch_radius, transport_velocity
 from .loop import _as_centres, _as_outside, _Circles, loop_layout
@@ -96,6 +97,7 @@ def loop_drive(
     guides: Sequence[Guide] = (),
     gravity=None,
     shoe_contact: AbstractContactLaw | None = None,
+    elongation: float = 0.0,
 ) -> Scene:
     """The drive over N sprockets (see :func:`~jaxchain.scenes.drive`)."""
     if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
@@ -159,6 +161,8 @@ def loop_drive(
             "load_torque, a take-up on the slack side (take_up_sprocket=1, or the tensioner "
             "on span 0), or settle=False (start from the layout, load ramped in)"
         )
+    pitch = chain.pitch  # the sprockets are cut for the unworn pitch
+    chain = worn(chain, elongation)
     stretch = stretch_of(chain, fidelity, pretension)
     lp = chain.pitch + stretch
     r_roller = chain.roller_diameter / 2
@@ -183,7 +187,7 @@ def loop_drive(
         m = iv
     try:
         lay = loop_layout(
-            chain.pitch,
+            pitch,
             lay_teeth,
             lay_centres,
             lay_outside,
