@@ -336,6 +336,7 @@ def remeasure(problem: Problem, profile, *, law: str = "johnson", rtol: float | 
                 "steps": int(sol.stats["num_accepted_steps"]),
                 "ts": np.asarray(sol.ts),
                 "force": force.max(axis=1),
+                "torque": np.asarray(sol.sprocket_torque)[:, 0],
             }
         )
     peaks = [r["peak_N"] for r in rows]

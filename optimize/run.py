@@ -345,6 +345,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     # force traces at the baseline's worst operating point, both designs
     worst = int(np.argmax([r["peak_N"] for r in traces[f"iso_{better}"]]))
     traces = {name: rows[worst] for name, rows in traces.items()}
+    spectra = {name: torque_spectrum(tr["ts"], tr["torque"]) for name, tr in traces.items()}
 
     # against the best ISO form under each law (which form is best may differ per law)
     gain = {
@@ -381,13 +382,20 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "reduction_vs_better_baseline": gain,
         "soft_peak_bias": soft_bias,
         "history": history,
+        "spectra": {
+            "signal": "the chain's torque on the driver [N·m], Hann-windowed over the window",
+            "speed_factor": traces["optimized"]["speed_factor"],
+            "wear": traces["optimized"]["wear"],
+            "mesh_frequency_Hz": mesh_frequency(problem, traces["optimized"]["speed_factor"]),
+        }
+        | {name: {k: v for k, v in sp.items() if k != "pad"} for name, sp in spectra.items()},
         "gradient_free": nm,
         "timing": timing,
     }
     if lead:
         write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
         optimized.to_dxf(out / "sprocket.dxf")
-        figures(problem, out, forms, optimized, better, history, nm, traces)
+        figures(problem, out, forms, optimized, better, history, nm, traces, spectra)
     log(summary(results), quiet)
     return results
 
@@ -519,7 +527,46 @@ def summary(r: dict) -> str:
     return "\n".join(lines)
 
 
-def figures(problem, out, forms, optimized, better, history, nm, traces) -> None:
+BANDS_HZ = ((0.0, 1e3), (1e3, 5e3), (5e3, 20e3))  # reported RMS bands of the spectra
+
+
+def mesh_frequency(problem: Problem, speed_factor: float) -> float:
+    """Teeth meshing per second on the designed sprocket at ``speed_factor`` [Hz]."""
+    s = problem.settings
+    return s.teeth * s.speed_rpm * speed_factor / 60
+
+
+def torque_spectrum(ts, x, pad: int = 8, f_max: float = 20e3) -> dict:
+    """Single-sided amplitude spectrum of ``x(ts)`` (uniform ``ts``) with the mean removed
+    and a Hann window (amplitude-corrected, so a sine of amplitude A reads A): the
+    frequencies up to ``f_max`` of the ``pad``-times zero-padded transform (a smooth
+    curve; its resolution stays 1/window), the largest line, and the RMS in
+    :data:`BANDS_HZ` (Parseval on the unpadded transform, Hann-corrected)."""
+    ts, x = np.asarray(ts, float), np.asarray(x, float)
+    n, dt = len(x), float(ts[1] - ts[0])
+    w = np.hanning(n)
+    y = (x - x.mean()) * w
+    f = np.fft.rfftfreq(pad * n, dt)
+    amp = 2 * np.abs(np.fft.rfft(y, pad * n)) / w.sum()
+    keep = f <= f_max
+    f1 = np.fft.rfftfreq(n, dt)
+    power = np.abs(np.fft.rfft(y)) ** 2 * 2 / (n * (w**2).sum())  # per bin, mean square
+    power[0] = 0.0
+    rms = {
+        f"{lo / 1e3:g}-{hi / 1e3:g} kHz": float(np.sqrt(power[(f1 >= lo) & (f1 < hi)].sum()))
+        for lo, hi in BANDS_HZ
+    }
+    k = int(np.argmax(amp[keep]))
+    return {
+        "frequency_Hz": f[keep],
+        "amplitude": amp[keep],
+        "largest_line": {"frequency_Hz": float(f[k]), "amplitude": float(amp[k])},
+        "band_rms": rms,
+        "resolution_Hz": 1 / (n * dt),
+    }
+
+
+def figures(problem, out, forms, optimized, better, history, nm, traces, spectra) -> None:
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -558,6 +605,27 @@ def figures(problem, out, forms, optimized, better, history, nm, traces) -> None
     )
     ax.legend()
     save_figure(fig, out / "forces.png")
+    plt.close(fig)
+
+    # spectra of the driver torque, both designs, mesh harmonics marked
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for name, color in [(f"iso_{better}", "tab:blue"), ("optimized", "tab:red")]:
+        sp = spectra[name]
+        a = np.maximum(sp["amplitude"], 1e-9)
+        ax.plot(sp["frequency_Hz"] / 1e3, 20 * np.log10(a), color=color, lw=1, label=name)
+    fm = mesh_frequency(problem, tr["speed_factor"])
+    for k in range(1, int(20e3 / fm) + 1):
+        ax.axvline(fm * k / 1e3, color="0.85", lw=0.6, zorder=0)
+    ax.set_xscale("log")
+    ax.set_xlim(max(0.1, 0.5 * fm / 1e3), 20)
+    ax.set_xlabel("frequency [kHz] (grey: mesh-frequency harmonics)")
+    ax.set_ylabel("driver torque amplitude [dB re 1 N·m]")
+    ax.set_title(
+        f"Spectra of the driver torque in the window (Hann, resolution "
+        f"{spectra['optimized']['resolution_Hz']:.0f} Hz)"
+    )
+    ax.legend()
+    save_figure(fig, out / "spectra.png")
     plt.close(fig)
 
     # objective history

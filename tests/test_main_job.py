@@ -61,8 +61,14 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
         "soft_peak_bias",
     ):
         assert key in saved
-    for name in ("profile.png", "forces.png", "objective.png"):
+    for name in ("profile.png", "forces.png", "spectra.png", "objective.png"):
         assert (out / name).stat().st_size > 10_000
+    # the driver torque's spectra, both designs (the spectrum itself: test below)
+    sp = saved["spectra"]
+    assert sp["mesh_frequency_Hz"] == pytest.approx(18 * 1000 / 60 * sp["speed_factor"])
+    for name in ("optimized", saved["better_baseline"]):
+        assert sp[name]["largest_line"]["amplitude"] > 0
+        assert all(v >= 0 for v in sp[name]["band_rms"].values())
     # the optimized design is inside its box, written as DXF arcs
     assert all(0 < f < 1 for f in saved["optimized"]["fraction_of_box"])
     assert saved["problem"] == "iso" and len(saved["optimized"]["u"]) == 4
@@ -87,8 +93,24 @@ def test_default_problem_runs_end_to_end(tmp_path):
     res = main(["--fast", "--quiet", "--out", str(tmp_path)])
     assert res["problem"] == "gentle" and len(res["optimized"]["u"]) == 7
     assert res["summary"]["remeasured"] is True
-    for name in ("profile.png", "forces.png", "objective.png", "sprocket.dxf"):
+    for name in ("profile.png", "forces.png", "spectra.png", "objective.png", "sprocket.dxf"):
         assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_torque_spectrum_reads_amplitudes_and_band_rms():
+    """The spectra the main job writes: a Hann-windowed sine reads its amplitude at its
+    frequency, and each band's RMS is the RMS of the sine inside it (A/√2), zero elsewhere."""
+    from optimize.run import torque_spectrum
+
+    ts = np.arange(20_000) * 0.5e-6  # 10 ms, as the re-measurement samples
+    x = 3.0 + 0.8 * np.sin(2 * np.pi * 2500.0 * ts) + 0.05 * np.sin(2 * np.pi * 9e3 * ts)
+    sp = torque_spectrum(ts, x)
+    assert sp["largest_line"]["frequency_Hz"] == pytest.approx(2500.0, abs=sp["resolution_Hz"] / 8)
+    assert sp["largest_line"]["amplitude"] == pytest.approx(0.8, rel=1e-3)
+    rms = sp["band_rms"]
+    assert rms["1-5 kHz"] == pytest.approx(0.8 / np.sqrt(2), rel=0.02)
+    assert rms["5-20 kHz"] == pytest.approx(0.05 / np.sqrt(2), rel=0.02)
+    assert rms["0-1 kHz"] < 1e-3
 
 
 def test_problems_and_their_starts():
