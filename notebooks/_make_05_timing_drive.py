@@ -81,12 +81,16 @@ timing = jc.scenes.drive(
     guides=(jc.scenes.Guide(span=2, length=0.12),),
     settle=not FAST,  # fast mode: the layout as built (settling takes ~10 s)
 )
-print(f"built{'' if FAST else ' and settled'} in {time.perf_counter() - start:.1f} s: {timing.n_links} links")
+print(
+    f"built{'' if FAST else ' and settled'} in {time.perf_counter() - start:.1f} s: {timing.n_links} links"
+)
 centres = np.array([np.asarray(s.centre) for s in timing.sprockets])
 radii = np.array([float(s.profile.pitch_radius) for s in timing.sprockets])
 teeth = [s.profile.teeth for s in timing.sprockets]
 for k, (c, r, z) in enumerate(zip(centres, radii, teeth)):
-    print(f"sprocket {k}: z = {z}, axis ({c[0] * 1e3:.1f}, {c[1] * 1e3:.1f}) mm, pitch radius {r * 1e3:.2f} mm")
+    print(
+        f"sprocket {k}: z = {z}, axis ({c[0] * 1e3:.1f}, {c[1] * 1e3:.1f}) mm, pitch radius {r * 1e3:.2f} mm"
+    )
 arm = timing.tensioners
 pivot = np.asarray(arm.pivot[0]) * 1e3
 print(
@@ -120,7 +124,10 @@ print(
     f"{time.perf_counter() - start:.1f} s, {int(sol.stats['num_steps'])} steps: {sol.result_name}"
 )
 print(
-    "outputs:", sol.tensioner_angle.shape, sol.tensioner_force.shape, sol.guide_force.shape,
+    "outputs:",
+    sol.tensioner_angle.shape,
+    sol.tensioner_force.shape,
+    sol.guide_force.shape,
     sol.roller_shoe_force.shape,
 )"""
     ),
@@ -158,7 +165,9 @@ shoe = np.asarray(sol.tensioner_force[:, 0])
 ax[1].plot(t_ms, shoe, lw=0.4, color="tab:blue", alpha=0.5)
 ax[1].plot(t_ms, running_mean(shoe), lw=2, color="tab:blue", label="chain on the shoe [N]")
 ax[1].plot(
-    t_ms, np.asarray(sol.tensioner_torque[:, 0]) * 100, color="tab:orange",
+    t_ms,
+    np.asarray(sol.tensioner_torque[:, 0]) * 100,
+    color="tab:orange",
     label="spring + damper torque [N·cm]",
 )
 ax[1].set(xlabel="time [ms]", title="tensioner forces")
@@ -198,11 +207,14 @@ for j, along in ((0, 0.25), (1, 0.5), (2, 0.5)):
     spans[j] = tension[np.arange(len(t_ms)), nearest]
 fig, ax = plt.subplots(1, 2, figsize=(14, 4))
 for j, name in ((0, "slack (tensioner)"), (1, "between the cams"), (2, "tight (guide)")):
-    line, = ax[0].plot(t_ms, spans[j], lw=0.4, alpha=0.5)
-    ax[0].plot(t_ms, running_mean(spans[j]), lw=2, color=line.get_color(), label=f"span {j}: {name}")
+    (line,) = ax[0].plot(t_ms, spans[j], lw=0.4, alpha=0.5)
+    ax[0].plot(
+        t_ms, running_mean(spans[j]), lw=2, color=line.get_color(), label=f"span {j}: {name}"
+    )
     ax[0].axhline(static[j], color=line.get_color(), ls="--", lw=0.8)
 ax[0].set(
-    xlabel="time [ms]", ylabel="tension [N]",
+    xlabel="time [ms]",
+    ylabel="tension [N]",
     title="span tensions (thick: mean over a crank tooth period; dashed: at rest)",
 )
 ax[0].legend(fontsize=8)

@@ -87,15 +87,21 @@ observers = (
 print(f"band orders {observers[1].orders.min():.0f}–{observers[1].orders.max():.0f}")
 if not FAST:
     scene = jc.scenes.drive(
-        chain, teeth=(18, 36), n_links=60, speed_rpm=1000.0, load_torque=40.0,
-        pretension=300.0, profiles=[qd.profile("random_flanks"),
-                                    jc.ToothProfile.iso606(chain, 36, "min")],
+        chain,
+        teeth=(18, 36),
+        n_links=60,
+        speed_rpm=1000.0,
+        load_torque=40.0,
+        pretension=300.0,
+        profiles=[qd.profile("random_flanks"), jc.ToothProfile.iso606(chain, 36, "min")],
     )
     sol = jc.simulate(scene, revs * 0.06, n_save=400, observers=observers, max_steps=400_000)
     lines, band = np.asarray(sol.observed[0]), float(sol.observed[1])
     print(jc.result_names(sol.result)[0], sol.stats["num_steps"], "steps")
-    print(f"largest line in the band {qd.band_max(lines)[0]:.2f} dB at order "
-          f"{qd.band_max(lines)[1]:.0f}; band level (soft maximum) {band:.2f} dB re 1 N")"""
+    print(
+        f"largest line in the band {qd.band_max(lines)[0]:.2f} dB at order "
+        f"{qd.band_max(lines)[1]:.0f}; band level (soft maximum) {band:.2f} dB re 1 N"
+    )"""
     ),
     new_markdown_cell(
         """## 2. Per-tooth sprockets
@@ -126,9 +132,11 @@ summ = res["summary"]
 print(f"{res['command']} — {res['date']}, {res['machine']['cpu_count']} cores")
 for d, v in summ.items():
     b, vs = v["signals"]["bearing1"], v["vs_iso_min"]
-    print(f"{d:14s} worst largest line {b['worst_dB']:5.1f} dB at {b['worst_rpm']:5.0f} rpm "
-          f"({vs['worst_line_dB']['bearing1']:+.1f} dB), worst peak {v['worst_peak_N']:5.0f} N "
-          f"({vs['worst_peak']:+.0%})")
+    print(
+        f"{d:14s} worst largest line {b['worst_dB']:5.1f} dB at {b['worst_rpm']:5.0f} rpm "
+        f"({vs['worst_line_dB']['bearing1']:+.1f} dB), worst peak {v['worst_peak_N']:5.0f} N "
+        f"({vs['worst_peak']:+.0%})"
+    )
 fig, ax = plt.subplots(1, 2, figsize=(13, 4.5))
 for d, v in summ.items():
     style = "o-" if d.startswith(("iso", "gentle")) else "s--"
@@ -184,9 +192,11 @@ play = float(iso_max.seating_radius) - float(chain.roller_diameter) / 2  # per s
 pitch = float(chain.pitch)
 amplitude = 2 * play / (2 * math.sin(math.pi / 18))  # neighbours 2·play apart, 1 cycle/rev
 beta = 2 * math.pi * amplitude / pitch  # phase-modulation index of the mesh order
-print(f"radial play {play * 1e6:.0f} µm per seat; seat shift ±{amplitude * 1e3:.2f} mm; "
-      f"index {beta:.2f} rad; mesh line lowered by {-20 * math.log10(j0(beta)):.2f} dB "
-      f"(ideal spread over 18 lines: {10 * math.log10(18):.1f} dB)")"""
+print(
+    f"radial play {play * 1e6:.0f} µm per seat; seat shift ±{amplitude * 1e3:.2f} mm; "
+    f"index {beta:.2f} rad; mesh line lowered by {-20 * math.log10(j0(beta)):.2f} dB "
+    f"(ideal spread over 18 lines: {10 * math.log10(18):.1f} dB)"
+)"""
     ),
     new_markdown_cell(
         """What remains for the tooth shape is the impact part of the lines and the peak force:
