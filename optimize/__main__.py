@@ -26,10 +26,6 @@ from pathlib import Path
 # runtime checks may return NaN rather than call back to Python: computations without a
 # host callback are what XLA's persistent compilation cache keeps (see main()).
 os.environ.setdefault("EQX_ON_ERROR", "nan")
-# and XLA's CPU compiler set for a third less compile time (see compile_flags)
-from .compile_flags import fast_compile  # noqa: E402  (imports no JAX)
-
-fast_compile()
 
 from .problem import Settings  # noqa: E402
 

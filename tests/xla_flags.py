@@ -1,11 +1,17 @@
-"""XLA compiler flags for jaxchain's entry points (the main job, the test suite), set in
-the environment before JAX starts its backend. The library itself sets nothing.
+"""XLA compiler flags for the test suite, set in the environment before JAX starts its
+backend (tests/conftest.py). The library itself sets nothing.
 
 XLA's CPU backend with its newer fusion emitters off compiles jaxchain's solves in about
 a third less time at the same run time (jaxlib 0.10.2 on a 2-core CPU: the main job's
 ``--fast --problem iso`` run spends 26.5 s instead of 39.5 s in XLA's backend compile;
 the default test run takes 414 s instead of 559 s), with results equal to rounding. An
 unknown flag aborts XLA, so it is set only for the jaxlib versions it was measured on.
+
+The main job does not set it: "equal to rounding" is not equal, and a design run
+amplifies rounding through its chaotic meshing sequence (with the flag, the default
+run's Adam objective drifts from the committed run's in the fourth digit by iteration 9),
+so its committed results are reproduced with XLA's defaults. Set ``XLA_FLAGS`` yourself
+to trade that for compile time.
 """
 
 from __future__ import annotations
