@@ -7,11 +7,11 @@ a third less time at the same run time (jaxlib 0.10.2 on a 2-core CPU: the main 
 the default test run takes 414 s instead of 559 s), with results equal to rounding. An
 unknown flag aborts XLA, so it is set only for the jaxlib versions it was measured on.
 
-The main job does not set it: "equal to rounding" is not equal, and a design run
-amplifies rounding through its chaotic meshing sequence (with the flag, the default
-run's Adam objective drifts from the committed run's in the fourth digit by iteration 9),
-so its committed results are reproduced with XLA's defaults. Set ``XLA_FLAGS`` yourself
-to trade that for compile time.
+The main job does not set it. A design run amplifies rounding through its chaotic
+meshing sequence, so its history is reproduced only with the same compiler settings on
+the same kind of CPU (with the flag, or on another CPU model, the default run's Adam
+objective moves in the fourth digit within ten iterations); its committed results are
+computed with XLA's defaults, and its compile time is a small part of its run.
 """
 
 from __future__ import annotations
