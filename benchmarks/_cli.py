@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -53,3 +54,14 @@ def finish(
 #: measure the numerical methods (solvers, tolerances, contact regularization, costs) on
 #: the model their committed results were run with.
 FRICTIONLESS = {"joint_friction": None}
+
+
+def single_thread_env() -> None:
+    """Environment of a study's solve processes (inherited at spawn): one thread each,
+    equinox's in-graph checks as NaN (failures are result codes)."""
+    os.environ["XLA_FLAGS"] = (
+        os.environ.get("XLA_FLAGS", "")
+        + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+    ).strip()
+    os.environ["OMP_NUM_THREADS"] = "1"
+    os.environ.setdefault("EQX_ON_ERROR", "nan")

@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser
+from benchmarks._cli import finish, parse, parser, single_thread_env
 
 CHAIN = "08B"
 Z, Z_DRIVEN, N_LINKS = 18, 36, 60
@@ -225,15 +225,6 @@ def chart(results: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def _worker_env() -> None:
-    """Environment of the solve processes (inherited at spawn): one thread each."""
-    os.environ["XLA_FLAGS"] = (
-        os.environ.get("XLA_FLAGS", "")
-        + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-    ).strip()
-    os.environ.setdefault("EQX_ON_ERROR", "nan")
-
-
 def main(argv=None) -> dict:
     from benchmarks.work_precision import machine_info
     from optimize.run import write_atomic
@@ -279,7 +270,7 @@ def main(argv=None) -> dict:
     print(f"{len(jobs)} solves to run ({len(done)} kept from {partial.name}), "
           f"{args.processes} at a time")  # fmt: skip
     start = time.perf_counter()
-    _worker_env()
+    single_thread_env()
     import multiprocessing as mp
 
     with ProcessPoolExecutor(args.processes, mp_context=mp.get_context("spawn")) as pool:

@@ -71,7 +71,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser
+from benchmarks._cli import finish, parse, parser, single_thread_env
 
 DESIGNS = ("iso_min", "optimized")
 DELTAS_UM = (5.0, 10.0, 20.0)
@@ -367,15 +367,6 @@ def chart(results: dict, path: Path) -> None:
 
 
 # ------------------------------------------------------------------------ main
-def _worker_env() -> None:
-    """Environment of the solve processes (inherited at spawn): one thread each."""
-    os.environ["XLA_FLAGS"] = (
-        os.environ.get("XLA_FLAGS", "")
-        + " --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-    ).strip()
-    os.environ["OMP_NUM_THREADS"] = "1"
-    os.environ.setdefault("EQX_ON_ERROR", "nan")
-
 
 #: Settings that define what a job measures: a row of an earlier run is reused only if
 #: these match (the designs, δs, samples and points only choose which jobs run).
@@ -461,7 +452,7 @@ def main(argv=None) -> dict:
           f"{args.processes} at a time")  # fmt: skip
     machine = machine_info()
     start = time.perf_counter()
-    _worker_env()
+    single_thread_env()
     import multiprocessing as mp
 
     with ProcessPoolExecutor(args.processes, mp_context=mp.get_context("spawn")) as pool:
