@@ -137,6 +137,12 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         default=d.learning_rate,
         help="in the design coordinate u (ISO range: u in about [-4, 4])",
     )
+    ap.add_argument(
+        "--clip",
+        type=float,
+        default=d.clip,
+        help="clip the gradient to this norm before the optimizer (0: off; default %(default)s)",
+    )
     ap.add_argument("--dt", type=float, default=d.dt, help="fixed step of the optimized solve [s]")
     ap.add_argument(
         "--contact-width",
@@ -198,6 +204,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         iterations=args.iterations,
         optimizer=args.optimizer,
         learning_rate=args.learning_rate,
+        clip=args.clip,
         dt=args.dt,
         contact_width=args.contact_width,
         joint_slip=args.joint_slip,

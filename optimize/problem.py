@@ -63,6 +63,7 @@ class Settings:
     iterations: int = 40
     optimizer: str = "adam"
     learning_rate: float = 0.25
+    clip: float = 0.0  # largest gradient norm passed to the optimizer (0: no clipping)
     baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
     remeasure_rtol: float = 1e-9
 
@@ -88,6 +89,8 @@ class Settings:
             raise ValueError(f"load must be >= 0, got {self.load}")
         if not (math.isfinite(self.pretension) and self.pretension > 0):
             raise ValueError(f"pretension must be a finite number > 0 [N], got {self.pretension}")
+        if not (math.isfinite(self.clip) and self.clip >= 0):
+            raise ValueError(f"clip must be a finite number >= 0 (0: no clipping), got {self.clip}")
         if self.baseline_budget < 0:
             raise ValueError(
                 f"baseline_budget must be >= 0 (0 skips it), got {self.baseline_budget}"

@@ -219,6 +219,8 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
 
     # 2. the optax loop, from the problem's start (the ISO box: its middle, u = 0)
     opt = getattr(optax, settings.optimizer)(settings.learning_rate)
+    if settings.clip > 0:  # a rebound appearing or vanishing spikes the gradient
+        opt = optax.chain(optax.clip_by_global_norm(settings.clip), opt)
     u = start_coordinates(problem)
     state = opt.init(u)
     history: list[dict] = []

@@ -150,6 +150,7 @@ def test_bad_options_are_explained():
         (["--load", "inf"], "load must be a finite number, got inf"),
         (["--learning-rate", "-1"], "learning_rate must be > 0"),
         (["--baseline-budget", "-3"], "baseline_budget must be >= 0"),
+        (["--clip", "nan"], r"clip must be a finite number >= 0 \(0: no clipping\), got nan"),
         (["--ensemble", "1,nan"], r"ensemble speed factors must be in \[0.2, 5\]"),
         (["--dt", "1e-3"], "dt must be <= 2e-5 s"),
         (["--pretension", "-1"], r"pretension must be a finite number > 0 \[N\], got -1.0"),
