@@ -63,7 +63,7 @@ class Settings:
     iterations: int = 40
     optimizer: str = "adam"
     learning_rate: float = 0.25
-    clip: float = 0.0  # largest gradient norm passed to the optimizer (0: no clipping)
+    clip: float = 100.0  # largest gradient norm passed to the optimizer [N] (0: no clipping)
     baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
     remeasure_rtol: float = 1e-9
 
