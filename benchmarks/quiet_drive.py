@@ -19,8 +19,9 @@ orders 0–72 of the driver are integrated inside the solve (Hann window over re
 Designs of the z = 18 driver:
 
 * ``iso_min``, ``iso_max``: the ISO 606 minimum and maximum forms, every tooth alike;
-* ``gentle``: the main job's free-form asymmetric tooth (``benchmarks/results/
-  optimize_default/results.json``), every tooth alike;
+* ``gentle``: the main job's free-form asymmetric tooth of its 2026-11-24 run
+  (``benchmarks/results/optimize_noclip/results.json``, the design the committed results
+  were measured on), every tooth alike;
 * ``random_radius``: a per-tooth pattern, each gap's seating radius drawn uniformly in the
   ISO 606 range (seed 0), the ISO minimum form's flanks;
 * ``random_flanks``: a per-tooth pattern, each gap's two seat angles drawn uniformly in
@@ -55,7 +56,7 @@ BAND = (9.0, 63.0)  # 0.5–3.5 mesh orders
 SIGNALS = (("bearing", 1), ("torque", 1))
 DESIGNS = ("iso_min", "iso_max", "gentle", "random_radius", "random_flanks")
 SPEEDS = tuple(float(s) for s in np.arange(500.0, 1501.0, 125.0))
-GENTLE = Path(__file__).parent / "results" / "optimize_default" / "results.json"
+GENTLE = Path(__file__).parent / "results" / "optimize_noclip" / "results.json"
 
 
 def profile(design: str):

@@ -28,7 +28,8 @@ Designs, both free-form profiles with two arcs per flank (one compiled program):
 * ``iso_min``: the ISO 606 minimum tooth-gap form (its own tip diameter), each flank one
   arc of radius re split in two;
 * ``optimized``: ``problem.space.profile(u)`` with ``u`` from
-  ``benchmarks/results/optimize_default/results.json`` (the main job's design).
+  ``benchmarks/results/optimize_noclip/results.json`` (the main job's design of its
+  2026-11-24 run, the one the committed results were measured on).
 
 Scatter model: tooth gap k of a sampled sprocket (k = 0 … 17) gets independent offsets
 ``δ·u`` with ``u`` uniform in [−1, 1], one per gap and parameter, each offset alone
@@ -78,7 +79,7 @@ DELTAS_UM = (5.0, 10.0, 20.0)
 SAMPLES = 16
 FLANK_RADIUS_PER_DELTA = 80.0  # flank radius tolerance as a multiple of δ (docstring)
 WORST_POINT = (1.5, 0.02)  # where both nominal designs peak (main job's results)
-OPTIMIZED = Path(__file__).parent / "results" / "optimize_default" / "results.json"
+OPTIMIZED = Path(__file__).parent / "results" / "optimize_noclip" / "results.json"
 PARTIAL = "tolerance.partial.json"
 
 
