@@ -390,7 +390,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
             "wear": traces["optimized"]["wear"],
             "mesh_frequency_Hz": mesh_frequency(problem, traces["optimized"]["speed_factor"]),
         }
-        | {name: {k: v for k, v in sp.items() if k != "pad"} for name, sp in spectra.items()},
+        | spectra,  # (their arrays are left out of the JSON: the figure shows them)
         "gradient_free": nm,
         "timing": timing,
     }
