@@ -8,9 +8,10 @@ over speeds of 0.5, 1.0 and 1.5 × 1000 rpm and chain wear of 0 and 2 % (the wor
 counts). ``--problem iso`` designs inside the ISO 606 box instead (four parameters).
 Writes results.json (with a top-level "summary"), profile.png, forces.png,
 spectra.png (the driver torque's spectrum before/after), objective.png and the designed
-sprocket as sprocket.dxf to --out; checkpoints every
-iteration (--resume continues after an interrupt). ``JAXCHAIN_FAST=1`` (or --fast) runs
-a small version for smoke tests. Compiled solves are kept in a persistent compilation
+sprocket as sprocket.dxf to --out; checkpoints every iteration (--resume continues after
+an interrupt). Adam's gradient is clipped to a norm of 100 N (--clip; 0 turns it off):
+a rebound that appears or vanishes spikes it. ``JAXCHAIN_FAST=1`` (or --fast) runs a
+small version for smoke tests. Compiled solves are kept in a persistent compilation
 cache, ``.jax_cache/`` in the working directory (``JAX_COMPILATION_CACHE_DIR`` moves
 it): a second run skips most of the compile time.
 """
