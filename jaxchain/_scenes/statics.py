@@ -231,12 +231,10 @@ def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
     def residual(x):
         return jnp.where(mask, _residual(x, args), 0.0)
 
-    r0 = residual(x0)
-    worst0 = jnp.max(jnp.abs(r0)) * force_scale
-    limit = 1e3 * jnp.maximum(force_scale, worst0)  # beyond it: unstable
-
-    def step(c):  # steps, x, v, kinetic energy, residual at x, best worst, step of best
-        i, x, v, ke_prev, r, best, at = c
+    # One force evaluation in the compiled loop, none outside it: the first pass (i = -1,
+    # zero residual, so nothing moves) only evaluates the start and fixes the limit.
+    def step(c):  # steps, x, v, kinetic energy, residual at x, best worst, step of best, limit
+        i, x, v, ke_prev, r, best, at, limit = c
         v = v + dt * acc * r
         ke = jnp.sum(weight * v * v)
         peak = ke < ke_prev  # the kinetic energy stopped growing: take it out
@@ -253,16 +251,18 @@ def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
             r,
             jnp.where(gain, worst, best),
             jnp.where(gain, i + 1, at),
+            jnp.where(i < 0, 1e3 * jnp.maximum(force_scale, worst), limit),  # beyond: unstable
         )
 
     def going(c):
-        i, _, _, _, r, _, at = c
+        i, _, _, _, r, _, at, limit = c
         worst = jnp.max(jnp.abs(r)) * force_scale
         stalled = i - at > jnp.maximum(20_000, at)  # round-off floor: no halving for as long
-        return (i < max_steps) & (worst > tolerance) & (worst < limit) & ~stalled
+        return (i < 0) | ((i < max_steps) & (worst > tolerance) & (worst < limit) & ~stalled)
 
-    init = (0, x0, jnp.zeros_like(x0), jnp.zeros((), x0.dtype), r0, worst0, 0)
-    steps, x, _, _, r, _, _ = jax.lax.while_loop(going, step, init)
+    zero = jnp.zeros((), x0.dtype)
+    init = (-1, x0, jnp.zeros_like(x0), zero, jnp.zeros_like(x0), zero + jnp.inf, 0, zero + jnp.inf)
+    steps, x, _, _, r, _, _, limit = jax.lax.while_loop(going, step, init)
     worst = jnp.max(jnp.abs(r)) * force_scale
     return x, worst, steps, jnp.isfinite(worst) & (worst < limit)
 
