@@ -48,6 +48,12 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
         1 - summary["optimized_value"] / summary["baseline_value"]
     )
     assert max(m["optimized_N"] for m in summary["members"]) == summary["optimized_value"]
+    # the delivered design is the better re-measured of the two optimizers' designs
+    runs = {k: saved["remeasured"][k]["johnson"]["peak_N"] for k in ("gradient", "nelder_mead")}
+    assert summary["optimized_value"] == min(runs.values())
+    assert saved["optimized"]["method"] == min(runs, key=runs.get)
+    assert summary["method"].lower().startswith(saved["optimized"]["method"].split("_")[0])
+    assert set(saved["reduction_by_method"]) == {"gradient", "nelder_mead"}
     for key in (
         "settings",
         "versions",
