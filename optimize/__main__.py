@@ -6,6 +6,8 @@ gap its own seat angle and a two-arc flank, plus the seating radius) for an 08B 
 meshing an 18-tooth driver under 1000 N (the engagement scene, lumped fidelity), robust
 over speeds of 0.5, 1.0 and 1.5 × 1000 rpm and chain wear of 0 and 2 % (the worst member
 counts). ``--problem iso`` designs inside the ISO 606 box instead (four parameters).
+Adam runs first, then Nelder–Mead on the same objective; both designs are re-measured
+(tight tolerance, nominal and second contact law) and the better one is delivered.
 Writes results.json (with a top-level "summary"), profile.png, forces.png,
 spectra.png (the driver torque's spectrum before/after), objective.png and the designed
 sprocket as sprocket.dxf to --out; checkpoints every iteration (--resume continues after

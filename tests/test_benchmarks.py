@@ -160,3 +160,27 @@ def test_tolerance_benchmark_quick(tmp_path):
     assert dev["seating_radius"] == pytest.approx(20.0, rel=0.02)
     assert (tmp_path / "tolerance.png").stat().st_size > 10_000
     assert not (tmp_path / "tolerance.partial.json").exists()
+
+
+def test_design_freedoms_reads_both_runs(tmp_path):
+    """The design-freedoms table from the two committed main-job runs (no simulation):
+    every design's worst peak as its run re-measured it, against the ISO minimum form;
+    runs made on different operating points are refused."""
+    from benchmarks.design_freedoms import FREEFORM, ISO, main
+
+    res = main(["--out", str(tmp_path)])
+    rows = {(r["freedom"], r["design"]): r for r in res["table"]["rows"]}
+    free = json.loads(FREEFORM.read_text())
+    assert rows[("ISO 606 form", "min form")]["vs_iso_min"]["johnson"] == 0.0
+    nm = rows[("free-form asymmetric", "nelder_mead")]
+    assert nm["johnson"] == free["remeasured"]["nelder_mead"]["johnson"]["peak_N"]
+    assert nm["vs_iso_min"]["johnson"] == pytest.approx(
+        nm["johnson"] / free["remeasured"]["iso_min"]["johnson"]["peak_N"] - 1
+    )
+    assert {d for f, d in rows if f == "ISO 606 box"} == {"adam", "nelder_mead"}
+    assert (tmp_path / "design_freedoms.png").stat().st_size > 10_000
+    other = json.loads(ISO.read_text())
+    other["settings"]["speed_rpm"] = 900.0
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    with pytest.raises(ValueError, match="speed_rpm"):
+        main(["--out", str(tmp_path), "--iso", str(tmp_path / "other.json")])
