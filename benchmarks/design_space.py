@@ -21,7 +21,8 @@ from the ISO forms' re-measured peaks).
 Designs, all inside the box ``DesignSpace.iso606`` (fractions 0..1 of each ISO range of
 seating radius ri, seating angle α, flank radius re, tip diameter da):
 * the three ISO forms (min = fractions (0, 1, 1, 1), max = (1, 0, 0, 0), mid);
-* the Adam optimum of the last main-job run (``--adam-results``);
+* the Adam optimum of a main-job run in the ISO box (``--adam-results``, default
+  ``results/optimize_iso/results.json``);
 * the 16 corners of the box (``--quick``: the 4 corners in (ri, α), re and da at the min
   form); corners equal to an ISO form are that form's result;
 * a scrambled Sobol sample (scipy.stats.qmc, fixed seed; 32 points, ``--quick`` 4);
@@ -75,7 +76,7 @@ from optimize.problem import (  # noqa: E402
 )
 from optimize.run import failures, jsonable, save_figure, write_atomic  # noqa: E402
 
-ADAM = OUT / "optimize_default" / "results.json"
+ADAM = OUT / "optimize_iso" / "results.json"  # the main job in the ISO box (--problem iso)
 SOBOL_SEED = 20240606
 ISO_ENSEMBLE = (0.9, 1.0, 1.1)  # the speed factors of the study's committed results
 EDGE_BAND = 0.01  # a peak this close (fraction of the window) to its start or end is clipped
@@ -455,6 +456,27 @@ def analyse(problem: Problem, rows: list[dict], hz: dict, p: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- run
+def adam_optimum(path: Path, size: int) -> dict:
+    """The gradient run's best iterate of a main-job ``results.json`` (its history: the
+    run may have delivered another method's design), which must be a design in the ISO
+    box (``python -m optimize --problem iso``)."""
+    saved = json.loads(path.read_text())
+    best = min(saved["history"], key=lambda h: h["objective_N"])
+    if len(best["u"]) != size:
+        raise ValueError(
+            f"{path} holds a {len(best['u'])}-coordinate design (problem "
+            f"{saved.get('problem')!r}); --adam-results needs a run in the ISO 606 box "
+            f"({size} coordinates): python -m optimize --problem iso"
+        )
+    return {
+        "u": best["u"],
+        "iteration": best["iteration"],
+        "objective_N": best["objective_N"],
+        "source": str(path),
+        "source_settings": saved.get("settings"),
+    }
+
+
 def main(argv=None) -> dict:
     ap = parser(__doc__)
     ap.add_argument("--adam-results", type=Path, default=ADAM,
@@ -467,9 +489,7 @@ def main(argv=None) -> dict:
     problem = make_problem(settings)
     adam = None
     if args.adam_results.exists():
-        saved = json.loads(args.adam_results.read_text())
-        adam = dict(saved["optimized"], source=str(args.adam_results))
-        adam["source_settings"] = saved.get("settings")
+        adam = adam_optimum(args.adam_results, problem.space.size)
     designs = design_list(problem, p, adam)
     results = {
         "machine": machine_info(),
