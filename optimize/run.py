@@ -299,7 +299,6 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     )
     best = min(history, key=lambda h: h["objective_N"])
     u_best = jnp.asarray(best["u"])
-    optimized = problem.space.profile(u_best)
 
     # 3. cost of a gradient: forward alone vs forward + reverse, at the optimum (compiled)
     objective.value(u_best)[0].block_until_ready()  # compile the forward-only function
@@ -319,12 +318,12 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     rt = settings.remeasure_rtol
     log(f"re-measuring: Dopri8 at rtol {rt:.0e}, sharp peak, Johnson and Hertz laws ...", quiet)
     t = time.perf_counter()
-    candidates = {"gradient": (optimized, best["objective_N"])}
+    candidates = {"gradient": (u_best, best["objective_N"])}  # coordinates, objective
     if not nm.get("skipped"):
-        candidates["nelder_mead"] = (problem.space.profile(jnp.asarray(nm["best_u"])), nm["best_N"])
+        candidates["nelder_mead"] = (jnp.asarray(nm["best_u"]), nm["best_N"])
     checks = {}
     traces = {}
-    designs = [(name, prof) for name, (prof, _) in candidates.items()]
+    designs = [(name, problem.space.profile(u)) for name, (u, _) in candidates.items()]
     for name, prof in designs + [(f"iso_{better}", forms[better])]:
         for law in ("johnson", "hertz"):
             if name not in candidates and law == "johnson" and better in measured:
@@ -346,8 +345,8 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     timing["remeasure_s"] = time.perf_counter() - t
     # the delivered design: the optimizers' better one, as re-measured (nominal law)
     method = min(candidates, key=lambda c: checks[c]["johnson"]["peak_N"])
-    optimized, objective_value = candidates[method]
-    u_opt = u_best if method == "gradient" else jnp.asarray(nm["best_u"])
+    u_opt, objective_value = candidates[method]
+    optimized = problem.space.profile(u_opt)
     checks["optimized"] = checks[method]
     traces["optimized"] = traces[method]
     if not nm.get("skipped"):
