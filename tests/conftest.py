@@ -72,8 +72,11 @@ def pytest_collection_modifyitems(items):
     rank.update({name: len(FIRST) + 1 + i for i, name in enumerate(LAST)})
 
     def key(item):
-        file = rank.get(item.nodeid.split("::", 1)[0].rsplit("/", 1)[-1], len(FIRST))
-        notebook = item.nodeid.rsplit("[", 1)[-1]
+        path, _, test = item.nodeid.partition("::")
+        file = rank.get(path.rsplit("/", 1)[-1], len(FIRST))
+        if not path.endswith("test_notebooks.py"):
+            return file, 0
+        notebook = test.rsplit("[", 1)[-1]
         return file, next((i for i, p in enumerate(NOTEBOOKS) if notebook.startswith(p)), 0)
 
     items.sort(key=key)
