@@ -31,7 +31,7 @@ from ._options import SolveOptions, with_options
 from ._profile import ToothProfile, iso606_limits
 from ._result import Result, raise_if_failed
 from ._scene import Scene
-from ._scenes.statics import resettle
+from ._scenes.statics import resettle, statics_jacobian
 from ._solve import check_horizon, solve, strong_scene
 
 __all__ = [
@@ -476,10 +476,10 @@ class _Config(eqx.Module):
     combine: str = eqx.field(static=True)
 
 
-def _member(u, space, scene, cfg):
+def _member(u, space, scene, jac, cfg):
     k = cfg.sprocket
     scene = eqx.tree_at(lambda s: s.sprockets[k].profile, scene, space.profile(u))
-    scene = resettle(scene, take_up=cfg.take_up)
+    scene = resettle(scene, take_up=cfg.take_up, jacobian=jac)
     return observe(scene, cfg.t1, cfg.objective, options=cfg.options)
 
 
@@ -492,17 +492,18 @@ def _combine(values, cfg):
 
 
 # members: the scenes' array leaves (stack keeps the agreed non-array leaves as they are)
-_MEMBER_AXES = (None, None, eqx.if_array(0), None)
+# and their statics Jacobians
+_MEMBER_AXES = (None, None, eqx.if_array(0), 0, None)
 
 
-def _loss(u, space, scenes, cfg):
-    out = eqx.filter_vmap(_member, in_axes=_MEMBER_AXES)(u, space, scenes, cfg)
+def _loss(u, space, scenes, jacs, cfg):
+    out = eqx.filter_vmap(_member, in_axes=_MEMBER_AXES)(u, space, scenes, jacs, cfg)
     return _combine(out.value, cfg), out
 
 
-def _member_grad(u, space, scene, cfg):
+def _member_grad(u, space, scene, jac, cfg):
     """One member's value's gradient in ``u``, and its :class:`Observed`."""
-    grad, out = jax.grad(lambda u: (lambda o: (o.value, o))(_member(u, space, scene, cfg)),
+    grad, out = jax.grad(lambda u: (lambda o: (o.value, o))(_member(u, space, scene, jac, cfg)),
                          has_aux=True)(u)  # fmt: skip
     return grad, out
 
@@ -523,6 +524,14 @@ _members = eqx.filter_jit(eqx.filter_vmap(_member, in_axes=_MEMBER_AXES))
 _members_grad = eqx.filter_jit(eqx.filter_vmap(_member_grad, in_axes=_MEMBER_AXES))
 _combine_jit = eqx.filter_jit(_combine)
 _combined_jit = eqx.filter_jit(_combined)
+# the members' statics Jacobians at their settled starts, outside the differentiated
+# function: compiled once per scene structure, shared by the value and the gradient
+_jacobians = eqx.filter_jit(
+    eqx.filter_vmap(
+        lambda scene, take_up: statics_jacobian(scene, take_up=take_up),
+        in_axes=(eqx.if_array(0), None),
+    )
+)
 
 
 class ProfileObjective:
@@ -662,12 +671,12 @@ class ProfileObjective:
             lambda x: x[np.asarray(sp.slots)] if eqx.is_array(x) else x, scenes
         ), sp
 
-    def _across(self, u, local, sp, grad: bool):
+    def _across(self, u, local, jacs, sp, grad: bool):
         """Value (and gradient) from this process's share: per member, gathered."""
         if grad:
-            grads, out = _members_grad(u, self.space, local, self.config)
+            grads, out = _members_grad(u, self.space, local, jacs, self.config)
         else:
-            grads, out = None, _members(u, self.space, local, self.config)
+            grads, out = None, _members(u, self.space, local, jacs, self.config)
         grads, out = dist.gather((grads, out), rows=sp.members)
         if grad:
             value, grads = _combined_jit(out.value, grads, self.config)
@@ -714,10 +723,11 @@ class ProfileObjective:
         gradient at ``u0`` sees, for finite-difference checks."""
         local, sp = self._share(scenes)
         self._count(local, sp.members if sp else int(np.shape(local.q0)[0]))
+        jacs = _jacobians(local, self.config.take_up)
         if sp is not None:
-            value, _, out = self._across(self._u(u), local, sp, grad=False)
+            value, _, out = self._across(self._u(u), local, jacs, sp, grad=False)
         else:
-            value, out = _value(self._u(u), self.space, local, self.config)
+            value, out = _value(self._u(u), self.space, local, jacs, self.config)
         return self._checked(value, None, out)[0], out
 
     def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, Observed]:
@@ -725,9 +735,10 @@ class ProfileObjective:
         local, sp = self._share(scenes)
         self._count(local, sp.members if sp else int(np.shape(local.q0)[0]))
         u = self._u(u)
+        jacs = _jacobians(local, self.config.take_up)
         if sp is not None:
-            value, grad, out = self._across(u, local, sp, grad=True)
+            value, grad, out = self._across(u, local, jacs, sp, grad=True)
         else:
-            (value, out), grad = _value_and_grad(u, self.space, local, self.config)
+            (value, out), grad = _value_and_grad(u, self.space, local, jacs, self.config)
         value, grad = self._checked(value, grad, out)
         return value, grad, out

@@ -28,4 +28,8 @@ from ._scenes.shoes import (
     Tensioner as Tensioner,
     shoe_law as shoe_law,
 )
-from ._scenes.statics import equilibrate as equilibrate, resettle as resettle
+from ._scenes.statics import (
+    equilibrate as equilibrate,
+    resettle as resettle,
+    statics_jacobian as statics_jacobian,
+)

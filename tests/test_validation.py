@@ -122,6 +122,8 @@ BAD = [
     (lambda: jc.scenes.equilibrate(SCENE, tolerance=0.0), ValueError, "tolerance must be > 0"),
     (lambda: jc.scenes.equilibrate(SCENE, max_steps=0), ValueError, "max_steps must be an int"),
     (lambda: jc.scenes.resettle(SCENE, take_up=-1.0), ValueError, "take_up must be >= 0 N"),
+    (lambda: jc.scenes.resettle(SCENE, jacobian=np.eye(3)), ValueError, "jacobian must be"),
+    (lambda: jc.scenes.statics_jacobian("scene"), TypeError, "scene must be a jaxchain Scene"),
     # ---------------------------------------------------- chains, profiles, materials, laws
     (lambda: jc.ChainSpec.iso606(8), TypeError, "name must be an ISO 606 designation"),
     (

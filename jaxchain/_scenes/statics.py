@@ -42,7 +42,7 @@ from .._dynamics import DriveState, forces
 from .._numerics import is_concrete
 from .._scene import LinkSprings, Scene
 
-__all__ = ["equilibrate", "resettle"]
+__all__ = ["equilibrate", "resettle", "statics_jacobian"]
 
 
 def _unpack(scene, x, pitch):
@@ -365,22 +365,8 @@ def _at_rest(scene: Scene) -> Scene:
     return eqx.tree_at(lambda sc: sc.anchors.speed, scene, jnp.zeros_like(scene.anchors.speed))
 
 
-@eqx.filter_jit  # called eagerly, the Jacobian would dispatch op by op (30 s)
-def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
-    """One Newton step of the statics from ``scene``'s current start: the equilibrium of a
-    settled scene whose parameters (a tooth profile, a tension) were changed a little.
-
-    Differentiable, with the implicit-function derivative of the equilibrium: the step
-    is ``−J⁻¹ r`` with the residual ``r`` taken through the changed parameters and the
-    Jacobian ``J`` held constant, so at the parameters the scene was settled for the
-    step is zero and its derivative is ``−J⁻¹ ∂r/∂parameters`` — exactly how the static
-    equilibrium moves. Use it inside a differentiated function on a scene settled by
-    :func:`equilibrate` (with the same ``take_up``) at the current parameter values.
-    Works traced (inside ``jit``/``grad``/``vmap``).
-    """
-    checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
-    if is_concrete(take_up):
-        checks.real("take_up", take_up, lo=0.0, unit="N")
+def _resettle_args(scene: Scene, take_up) -> tuple:
+    """The residual's arguments at ``scene``'s start (guides at rest), unknowns zero."""
     rest = _at_rest(scene)
     ns, n = len(scene.sprockets), scene.n_bodies
     pitch = scene.sprockets[0].profile.pitch
@@ -394,9 +380,59 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0) -> Scene:
         scale.append(jnp.max(_arm_force(scene)))
     fs = jax.lax.stop_gradient(jnp.max(jnp.stack([jnp.asarray(v, float) for v in scale])))
     x0 = jnp.zeros(3 * n + 2 * ns + _n_arms(scene), dtype=scene.q0.dtype)
-    args = (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
-    r = _residual(x0, args)
+    return (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
+
+
+def _checked_take_up(scene, take_up) -> None:
+    checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
+    if is_concrete(take_up):
+        checks.real("take_up", take_up, lo=0.0, unit="N")
+
+
+def _jacobian(args) -> jax.Array:
     # the vanishing spring keeps bodies floating in free play (zero rows) from making the
-    # Jacobian singular; at x0 it adds nothing to r
-    jac = jax.lax.stop_gradient(jax.jacfwd(_residual)(x0, args[:-1] + (1e-6,)))
+    # Jacobian singular; at x0 it adds nothing to the residual
+    return jax.lax.stop_gradient(jax.jacfwd(_residual)(args[-2], args[:-1] + (1e-6,)))
+
+
+@eqx.filter_jit
+def statics_jacobian(scene: Scene, *, take_up: ArrayLike = 0.0) -> jax.Array:
+    """The Jacobian of the (scaled) static force residual at ``scene``'s start, the matrix
+    :func:`resettle` solves with. Compute it once on a settled scene and pass it to every
+    :func:`resettle` of that scene (``jacobian=``): the differentiated function then
+    carries no Jacobian of its own (a smaller program to compile, the same derivative).
+    Works traced and under ``vmap`` (one Jacobian per ensemble member)."""
+    _checked_take_up(scene, take_up)
+    return _jacobian(_resettle_args(scene, take_up))
+
+
+@eqx.filter_jit  # called eagerly, the Jacobian would dispatch op by op (30 s)
+def resettle(
+    scene: Scene, *, take_up: ArrayLike = 0.0, jacobian: ArrayLike | None = None
+) -> Scene:
+    """One Newton step of the statics from ``scene``'s current start: the equilibrium of a
+    settled scene whose parameters (a tooth profile, a tension) were changed a little.
+
+    Differentiable, with the implicit-function derivative of the equilibrium: the step
+    is ``−J⁻¹ r`` with the residual ``r`` taken through the changed parameters and the
+    Jacobian ``J`` held constant, so at the parameters the scene was settled for the
+    step is zero and its derivative is ``−J⁻¹ ∂r/∂parameters`` — exactly how the static
+    equilibrium moves. Use it inside a differentiated function on a scene settled by
+    :func:`equilibrate` (with the same ``take_up``) at the current parameter values.
+    Works traced (inside ``jit``/``grad``/``vmap``).
+
+    ``jacobian``: ``J`` from :func:`statics_jacobian` of the settled scene (same
+    ``take_up``), computed outside the differentiated function; by default ``J`` is
+    computed here, at the changed parameters (the two agree where the step is zero, so
+    the derivative there is the same).
+    """
+    _checked_take_up(scene, take_up)
+    args = _resettle_args(scene, take_up)
+    r = _residual(args[-2], args)
+    jac = _jacobian(args) if jacobian is None else jax.lax.stop_gradient(jnp.asarray(jacobian))
+    if jac.shape != (r.size, r.size):
+        raise ValueError(
+            f"resettle: jacobian must be {r.size}x{r.size} (statics_jacobian of this "
+            f"scene), got shape {jac.shape}"
+        )
     return _finish(scene, -jnp.linalg.solve(jac, r))
