@@ -407,9 +407,7 @@ def statics_jacobian(scene: Scene, *, take_up: ArrayLike = 0.0) -> jax.Array:
 
 
 @eqx.filter_jit  # called eagerly, the Jacobian would dispatch op by op (30 s)
-def resettle(
-    scene: Scene, *, take_up: ArrayLike = 0.0, jacobian: ArrayLike | None = None
-) -> Scene:
+def resettle(scene: Scene, *, take_up: ArrayLike = 0.0, jacobian: ArrayLike | None = None) -> Scene:
     """One Newton step of the statics from ``scene``'s current start: the equilibrium of a
     settled scene whose parameters (a tooth profile, a tension) were changed a little.
 
