@@ -77,7 +77,7 @@ def test_tensioner_statics(tensioned):
 
 @pytest.fixture(scope="module")
 def short_solve(tensioned):
-    return jc.simulate(tensioned, 2e-3, n_save=5, rtol=1e-4)
+    return jc.simulate(tensioned, 5e-4, n_save=5, rtol=1e-4)
 
 
 def test_tensioner_solve_outputs(tensioned, short_solve):
