@@ -162,7 +162,7 @@ def test_bad_options_are_explained():
         (["--pretension", "-1"], r"pretension must be a finite number > 0 \[N\], got -1.0"),
         # a drive whose load the pretension cannot carry: the builder's fix, in options
         (["--scene", "drive", "--load", "30"], r"pretension >= 206.4 N.*--pretension \[N\]"),
-        (["--out", "README.md"], "README.md is a file; give a folder"),
+        (["--out", __file__], "test_main_job.py is a file; give a folder"),
         (["--out", "/proc/no/such"], "is not a writable folder"),
     ],
 )
