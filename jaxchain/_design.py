@@ -544,8 +544,10 @@ class ProfileObjective:
     points, which must share one structure); inside the differentiated function the
     profile is swapped in and :func:`~jaxchain.scenes.resettle` carries the static
     equilibrium's dependence on the profile into the gradient (implicit function
-    theorem). Ensemble members are vmapped and combined by ``combine``: "mean", or
-    "max", a soft maximum of the members (log-mean-exp at ``member_temperature``).
+    theorem; each settled scene's statics Jacobian is computed once, outside the
+    differentiated function, by :func:`~jaxchain.scenes.statics_jacobian`). Ensemble
+    members are vmapped and combined by ``combine``: "mean", or "max", a soft maximum of
+    the members (log-mean-exp at ``member_temperature``).
 
     The measure is ``objective``, any observer with a scalar value integrated by the one
     solve (:class:`~jaxchain.observers.BandLevel` for the largest mesh-order line [dB],
