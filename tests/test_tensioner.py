@@ -6,6 +6,7 @@ tension over several revolutions with and without a tensioner (slow)."""
 
 import math
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -125,7 +126,8 @@ def test_shoe_contact_against_its_law(tensioned):
     depth = 2e-6
     far = jnp.full((sc.n_rollers, 2), 10.0)  # every other roller far away
     xr = far.at[0].set(centre_now + n_now * (1 / kappa + r - depth))
-    out = shoe_contacts(y, sc, xr, jnp.zeros_like(xr), sc.roller_radius)
+    contacts = eqx.filter_jit(shoe_contacts)  # one program for both positions, not op by op
+    out = contacts(y, sc, xr, jnp.zeros_like(xr), sc.roller_radius)
     want = float(sh.law.normal_force(depth, 0.0, sc.impact_speed))
     np.testing.assert_allclose(out.normal[0], want, rtol=1e-9)
     np.testing.assert_allclose(out.force[0], want * n_now, rtol=1e-10, atol=1e-9)
@@ -134,13 +136,13 @@ def test_shoe_contact_against_its_law(tensioned):
     cb, sb = math.cos(beyond), math.sin(beyond)
     n_off = jnp.array([[cb, -sb], [sb, cb]]) @ n_now
     xr_off = far.at[0].set(centre_now + n_off * (1 / kappa + r - depth))
-    off = shoe_contacts(y, sc, xr_off, jnp.zeros_like(xr), sc.roller_radius)
+    off = contacts(y, sc, xr_off, jnp.zeros_like(xr), sc.roller_radius)
     assert float(off.normal[0]) == 0.0
 
     def torque(arm):
         return shoe_contacts(y._replace(arm=arm), sc, xr, jnp.zeros_like(xr), r).arm_torque[0]
 
-    g = jax.grad(torque)(y.arm)
+    g = jax.jit(jax.grad(torque))(y.arm)
     assert np.all(np.isfinite(np.asarray(g))) and float(jnp.abs(g).max()) > 0
 
 
