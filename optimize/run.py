@@ -545,9 +545,11 @@ def summary(r: dict) -> str:
     )
     nm = r["gradient_free"]
     if not nm.get("skipped"):
+        at = nm["simulations_to_target"]
+        reach = f"reached after {at}" if at is not None else "not reached"
         lines.append(
-            f"Nelder–Mead: best {nm['best_N']:.0f} N in {nm['simulations']} simulations; reached"
-            f" the gradient run's {nm['target_N']:.0f} N after {nm['simulations_to_target']};"
+            f"Nelder–Mead: best {nm['best_N']:.1f} N in {nm['simulations']} simulations; the"
+            f" gradient run's {nm['target_N']:.1f} N {reach};"
             f" its best re-measured {nm['remeasured']['johnson']:.0f} N (Johnson),"
             f" {nm['remeasured']['hertz']:.0f} N (Hertz)"
         )
