@@ -245,16 +245,20 @@ def _grad_at(dt, build=_build, u=(0.2, 0.5, -0.3, 0.1)):
 
 
 @pytest.mark.slow
-def test_gradient_converges_as_the_step_shrinks(short_objective):
-    """With the onset resolved (3 µm), the fixed-step gradient is converged at 4 µs:
-    measured [6.372, 39.982, 0.11432] (4 µs), [6.316, 39.986, 0.11437] (2 µs),
-    [6.344, 39.961, 0.11430] (1 µs): within 1 % of the gradient's norm. A convergence
-    study (a second gradient compile, ~60 s in CI): marked slow; the default run checks
-    the 4 µs gradient against central differences (test_gradient_matches_central_…)."""
-    # the module's objective is the 4 µs one (compiled once for the file)
-    g4 = np.asarray(short_objective.value_and_grad(jnp.asarray((0.2, 0.5, -0.3, 0.1)))[1])
-    g2 = _grad_at(2e-6)
-    assert np.linalg.norm(g4 - g2) < 0.01 * np.linalg.norm(g2), (g4, g2)
+def test_gradient_converges_as_the_step_shrinks():
+    """With the onset resolved (3 µm), the fixed-step gradient converges as the step
+    shrinks: 2 µs and 1 µs within 1 % of its norm. Measured at u = (0.2, 0.5, −0.3, 0.1):
+    [0.261, −68.872, −0.35355] (2 µs), [0.124, −68.832, −0.35335] (1 µs). The 4 µs step
+    of the design model is not converged here: [27.0, −78.4, −0.396], 41 % of the norm
+    away (its value 881.7 N against 884.1 N at 2 µs): the exact gradient of the 4 µs
+    discrete objective (test_gradient_matches_central_…), not of the converged one. It
+    comes with the joints' friction: frictionless, the same point gives [5.786, 45.402,
+    0.12633] at 4 µs and [5.718, 45.418, 0.12647] at 2 µs (1.2 %); widening the friction's
+    creep band (5 or 10 cm/s) does not restore it. A convergence study (two gradient
+    compiles): marked slow."""
+    u = (0.2, 0.5, -0.3, 0.1)
+    g2, g1 = _grad_at(2e-6, u=u), _grad_at(1e-6, u=u)
+    assert np.linalg.norm(g2 - g1) < 0.01 * np.linalg.norm(g1), (g2, g1)
 
 
 @pytest.mark.slow
