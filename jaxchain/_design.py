@@ -673,6 +673,13 @@ class ProfileObjective:
             lambda x: x[np.asarray(sp.slots)] if eqx.is_array(x) else x, scenes
         ), sp
 
+    def _prepared(self, scenes) -> tuple[Scene, dist.Split | None, Array]:
+        """This process's scenes (counted as simulations), the split when shared, and the
+        scenes' statics Jacobians."""
+        local, sp = self._share(scenes)
+        self._count(local, sp.members if sp else int(np.shape(local.q0)[0]))
+        return local, sp, _jacobians(local, self.config.take_up)
+
     def _across(self, u, local, jacs, sp, grad: bool):
         """Value (and gradient) from this process's share: per member, gathered."""
         if grad:
@@ -723,9 +730,7 @@ class ProfileObjective:
         """:meth:`value` on ``scenes`` already built (``self.scenes(u0)``) and held: the
         profile at ``u`` is swapped in and resettled to first order — the same model the
         gradient at ``u0`` sees, for finite-difference checks."""
-        local, sp = self._share(scenes)
-        self._count(local, sp.members if sp else int(np.shape(local.q0)[0]))
-        jacs = _jacobians(local, self.config.take_up)
+        local, sp, jacs = self._prepared(scenes)
         if sp is not None:
             value, _, out = self._across(self._u(u), local, jacs, sp, grad=False)
         else:
@@ -734,10 +739,8 @@ class ProfileObjective:
 
     def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, Observed]:
         """:meth:`value_and_grad` on ``scenes`` already built (see :meth:`value_on`)."""
-        local, sp = self._share(scenes)
-        self._count(local, sp.members if sp else int(np.shape(local.q0)[0]))
+        local, sp, jacs = self._prepared(scenes)
         u = self._u(u)
-        jacs = _jacobians(local, self.config.take_up)
         if sp is not None:
             value, grad, out = self._across(u, local, jacs, sp, grad=True)
         else:

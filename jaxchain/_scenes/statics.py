@@ -383,7 +383,8 @@ def _resettle_args(scene: Scene, take_up) -> tuple:
     return (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
 
 
-def _checked_take_up(scene, take_up) -> None:
+def _check(scene, take_up) -> None:
+    """A Scene, and a take-up >= 0 where it is concrete."""
     checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
     if is_concrete(take_up):
         checks.real("take_up", take_up, lo=0.0, unit="N")
@@ -402,7 +403,7 @@ def statics_jacobian(scene: Scene, *, take_up: ArrayLike = 0.0) -> jax.Array:
     :func:`resettle` of that scene (``jacobian=``): the differentiated function then
     carries no Jacobian of its own (a smaller program to compile, the same derivative).
     Works traced and under ``vmap`` (one Jacobian per ensemble member)."""
-    _checked_take_up(scene, take_up)
+    _check(scene, take_up)
     return _jacobian(_resettle_args(scene, take_up))
 
 
@@ -424,7 +425,7 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0, jacobian: ArrayLike | No
     computed here, at the changed parameters (the two agree where the step is zero, so
     the derivative there is the same).
     """
-    _checked_take_up(scene, take_up)
+    _check(scene, take_up)
     args = _resettle_args(scene, take_up)
     r = _residual(args[-2], args)
     jac = _jacobian(args) if jacobian is None else jax.lax.stop_gradient(jnp.asarray(jacobian))
