@@ -35,6 +35,14 @@ def parse(ap: argparse.ArgumentParser, argv=None) -> argparse.Namespace:
     return args
 
 
+def shown(path: Path) -> str:
+    """``path`` relative to the repository when it lies inside it (as results record it)."""
+    try:
+        return str(path.resolve().relative_to(Path(__file__).resolve().parents[1]))
+    except ValueError:
+        return str(path)
+
+
 def finish(
     results: dict, out: Path, name: str, chart: Callable[[dict, Path], None], start: float
 ) -> dict:

@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-from benchmarks._cli import finish, parse, parser
+from benchmarks._cli import finish, parse, parser, shown
 
 RESULTS = Path(__file__).parent / "results"
 ISO = RESULTS / "optimize_iso" / "results.json"
@@ -146,14 +146,6 @@ def chart(results: dict, path: Path) -> None:
     plt.close(fig)
 
 
-def _shown(path: Path) -> str:
-    """``path`` relative to the repository when it lies inside it."""
-    try:
-        return str(path.resolve().relative_to(Path(__file__).resolve().parents[1]))
-    except ValueError:
-        return str(path)
-
-
 def main(argv=None) -> dict:
     ap = parser(__doc__, quick_help="(no effect: nothing is simulated)")
     ap.add_argument("--iso", type=Path, default=ISO, help="the ISO-box run's results.json")
@@ -173,7 +165,7 @@ def main(argv=None) -> dict:
         "command": " ".join(["python -m benchmarks.design_freedoms", *given]),
         "date": datetime.date.today().isoformat(),
         "machine": machine_info(),
-        "sources": {"iso": _shown(args.iso), "freeform": _shown(args.freeform)},
+        "sources": {"iso": shown(args.iso), "freeform": shown(args.freeform)},
         "runs": {k: {"settings": r["settings"], "versions": r.get("versions")}
                  for k, r in runs.items()},
         "table": compare(runs["iso"], runs["freeform"]),

@@ -184,3 +184,19 @@ def test_design_freedoms_reads_both_runs(tmp_path):
     (tmp_path / "other.json").write_text(json.dumps(other))
     with pytest.raises(ValueError, match="speed_rpm"):
         main(["--out", str(tmp_path), "--iso", str(tmp_path / "other.json")])
+
+
+@pytest.mark.slow
+def test_step_convergence_quick(tmp_path):
+    """The step study's quick run (4 and 2 µs at the box middle of the main job's default
+    objective): each row's value and gradient against the finest step's, the values
+    within 1 % of each other (the gradients are the study's finding, not a bound)."""
+    from benchmarks.step_convergence import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    rows = {r["dt"]: r for r in res["rows"]}
+    assert set(rows) == {4e-6, 2e-6}
+    assert rows[2e-6]["value_change"] == 0.0 and rows[2e-6]["gradient_distance"] == 0.0
+    assert abs(rows[4e-6]["value_change"]) < 0.01
+    assert all(np.all(np.isfinite(r["gradient"])) for r in rows.values())
+    assert (tmp_path / "step_convergence.png").stat().st_size > 10_000
