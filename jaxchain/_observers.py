@@ -42,6 +42,7 @@ __all__ = [
     "AbstractIntegralObserver",
     "PeakRecord",
     "SoftPeak",
+    "SampledSoftPeak",
     "Health",
     "window_weight",
     "EXP_CAP",
@@ -234,23 +235,100 @@ class SoftPeak(AbstractIntegralObserver):
         temperature: ArrayLike = 50.0,
         reference: ArrayLike = 0.0,
     ):
-        if is_concrete((t_start, rise, temperature, reference)):
-            checks.real("SoftPeak.t_start", t_start, lo=0.0, unit="s")
-            checks.real("SoftPeak.rise", rise, lo=0.0, unit="s (0: a step)")
-            checks.real("SoftPeak.temperature", temperature, lo=0.0, lo_open=True, unit="N")
-            checks.real("SoftPeak.reference", reference, unit="N")
+        _check_soft("SoftPeak", t_start, rise, temperature, reference)
         self.t_start = jnp.asarray(t_start, dtype=float)
         self.rise = jnp.asarray(rise, dtype=float)
         self.temperature = jnp.asarray(temperature, dtype=float)
         self.reference = jnp.asarray(reference, dtype=float)
 
     def integrand(self, t, y, scene, forces):
-        f = jnp.sum(forces.roller_normal, axis=0)  # (R,) over sprockets
-        w = window_weight(t, self.t_start, self.rise)
-        e = (f - self.reference) / self.temperature
-        e = e - jax.nn.softplus(e - EXP_CAP)
-        return w * jnp.sum(jnp.exp(e))
+        return _soft_terms(self, t, jnp.sum(forces.roller_normal, axis=0))  # (R,) summed
 
     def value(self, state, t0, t1):
-        span = t1 - self.t_start
-        return self.reference + self.temperature * jnp.log(jnp.maximum(state, 1e-300) / span)
+        return _log_mean(self, state, t1)
+
+
+def _check_soft(name, t_start, rise, temperature, reference):
+    if is_concrete((t_start, rise, temperature, reference)):
+        checks.real(f"{name}.t_start", t_start, lo=0.0, unit="s")
+        checks.real(f"{name}.rise", rise, lo=0.0, unit="s (0: a step)")
+        checks.real(f"{name}.temperature", temperature, lo=0.0, lo_open=True, unit="N")
+        checks.real(f"{name}.reference", reference, unit="N")
+
+
+def _soft_terms(o, t, f):
+    """w(t)·Σ_i exp((F_i − F_ref)/τ) at time(s) ``t`` (…,) of the forces ``f`` (…, R)."""
+    e = (f - o.reference) / o.temperature
+    e = e - jax.nn.softplus(e - EXP_CAP)
+    return window_weight(t, o.t_start, o.rise) * jnp.sum(jnp.exp(e), axis=-1)
+
+
+def _log_mean(o, integral, t1):
+    span = t1 - o.t_start
+    return o.reference + o.temperature * jnp.log(jnp.maximum(integral, 1e-300) / span)
+
+
+class SampledSoftPeak(AbstractStepObserver):
+    """:class:`SoftPeak`'s value, its window integral taken by the trapezoid rule over
+    ``samples`` equal parts of every accepted step (states from the solver's dense
+    interpolant) instead of by the solver's stages — for fixed-step solves, whose step
+    can be longer than the soft maximum's spike.
+
+    Near the top F_max of an impact the integrand exp((F − F_ref)/τ) is a spike of
+    width σ ≈ √(τ / |F''|) in time: on the engagement (08B, z = 18, impacts of ~15 µs,
+    τ = 16 N) about 0.6 µs. A fixed step of 4 µs puts Tsit5's six stages ~2 µs apart, so
+    the integrated :class:`SoftPeak` depends on where each spike falls between them: its
+    value carries a ripple in the design parameters (0.5 N, ~5e-3 wide in the main job's
+    coordinates) whose slope, not the trend's, is the gradient — and it stays rough as the
+    step shrinks (2 and 1 µs: gradients of another size and sign). The trapezoid rule on
+    a spike is exact up to ~2·exp(−2π²σ²/h²) for sub-steps h: 8 parts of a 4 µs step
+    (0.5 µs) and 16 give the same gradient within 1e-4 relative, 4 parts one 23 % off.
+    Adaptive solves resolve the spike by their error control and should use
+    :class:`SoftPeak`.
+
+    Cost: ``samples`` roller-contact evaluations per step (one vmapped call); on the main
+    job's objective at 4 µs, value 1.8×, value and gradient 2.2× the integrated form's.
+
+    Attributes:
+        t_start, rise, temperature, reference: as :class:`SoftPeak`'s.
+        samples: parts per step (static, ≥ 1).
+    """
+
+    t_start: Float[Array, ""]
+    rise: Float[Array, ""]
+    temperature: Float[Array, ""]
+    reference: Float[Array, ""]
+    samples: int = eqx.field(static=True, default=8)
+
+    def __init__(
+        self,
+        t_start: ArrayLike = 0.0,
+        rise: ArrayLike = 0.0,
+        temperature: ArrayLike = 50.0,
+        reference: ArrayLike = 0.0,
+        samples: int = 8,
+    ):
+        _check_soft("SampledSoftPeak", t_start, rise, temperature, reference)
+        self.samples = checks.integer("SampledSoftPeak.samples", samples, lo=1)
+        self.t_start = jnp.asarray(t_start, dtype=float)
+        self.rise = jnp.asarray(rise, dtype=float)
+        self.temperature = jnp.asarray(temperature, dtype=float)
+        self.reference = jnp.asarray(reference, dtype=float)
+
+    def init(self, t0, y0, scene):
+        return jnp.zeros_like(self.temperature), _soft_terms(self, t0, _roller_forces(y0, scene))
+
+    def step(self, t0, t1, y0, y1, dense, scene, state):
+        total, g0 = state
+        n = self.samples
+        ts = t0 + (t1 - t0) * jnp.arange(1, n + 1) / n
+        ends = jax.tree_util.tree_map(lambda b: b[None], y1)
+        ys = ends if n == 1 else jax.tree_util.tree_map(
+            lambda a, b: jnp.concatenate([a, b]), dense(ts[:-1]), ends
+        )  # fmt: skip
+        g = _soft_terms(self, ts, jax.vmap(_roller_forces, in_axes=(0, None))(ys, scene))
+        total = total + (t1 - t0) / n * (0.5 * g0 + jnp.sum(g[:-1]) + 0.5 * g[-1])
+        return total, g[-1]  # the end's term serves as the next step's start
+
+    def value(self, state, t0, t1):
+        return _log_mean(self, state[0], t1)

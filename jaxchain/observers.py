@@ -2,6 +2,8 @@
 
 peak = jc.observers.PeakRecord(samples=4)     # each accepted step's top force, 5 samples
 soft = jc.observers.SoftPeak(t_start, rise, temperature, reference)   # integrated
+sampled = jc.observers.SampledSoftPeak(t_start, rise, temperature, reference, samples=8)
+# the same soft peak by the trapezoid rule on 8 parts of each step (fixed-step design)
 # windows in revolutions of a reference sprocket (the driver by default)
 lines = jc.observers.OrderSpectrum(range(64), 0.2, 2.2, signal="torque", sprocket=1, reference=0)
 band = jc.observers.BandLevel.mesh_band(18, 0.2, 2.2)   # largest line, 0.5-3.5 mesh orders [dB]
@@ -22,6 +24,7 @@ from ._observers import (
     AbstractObserver as AbstractObserver,
     AbstractStepObserver as AbstractStepObserver,
     PeakRecord as PeakRecord,
+    SampledSoftPeak as SampledSoftPeak,
     SoftPeak as SoftPeak,
     window_weight as window_weight,
 )

@@ -6,8 +6,13 @@ gap its own seat angle and a two-arc flank, plus the seating radius) for an 08B 
 meshing an 18-tooth driver under 1000 N (the engagement scene, lumped fidelity), robust
 over speeds of 0.5, 1.0 and 1.5 × 1000 rpm and chain wear of 0 and 2 % (the worst member
 counts). ``--problem iso`` designs inside the ISO 606 box instead (four parameters).
-Adam runs first, then Nelder–Mead on the same objective; both designs are re-measured
-(tight tolerance, nominal and second contact law) and the better one is delivered.
+The design objective solves each operating point over two of its own tooth periods
+(``--horizon own``) with fixed 4 µs steps and the soft peak sampled 8 times per step
+(``--samples``): its gradient then converges as the step shrinks; over longer solves a
+fast member's sensitivity to its state grows until the gradient no longer describes the
+objective (``benchmarks/step_convergence.py``). Adam runs first, then Nelder–Mead on
+the same objective; both designs are re-measured (tight tolerance, nominal and second
+contact law) and the better one is delivered.
 Writes results.json (with a top-level "summary"), profile.png, forces.png,
 spectra.png (the driver torque's spectrum before/after), objective.png and the designed
 sprocket as sprocket.dxf to --out; checkpoints every iteration (--resume continues after
@@ -166,6 +171,21 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         help="soft-max temperature as a fraction of the baseline peak",
     )
     ap.add_argument(
+        "--samples",
+        type=int,
+        default=d.samples,
+        help="soft peak: trapezoid parts per fixed step (0: integrated by the solver's "
+        "stages; default %(default)s)",
+    )
+    ap.add_argument(
+        "--horizon",
+        choices=["slowest", "own"],
+        default=d.horizon,
+        help="each member's solve: --periods of its own tooth periods (default; one compiled "
+        "solve per speed) or the slowest member's periods (one solve, 3× the periods at "
+        "the fastest of a 0.5-1.5 band)",
+    )
+    ap.add_argument(
         "--baseline-budget",
         type=int,
         default=None,
@@ -212,6 +232,8 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         contact_width=args.contact_width,
         joint_slip=args.joint_slip,
         temperature=args.temperature,
+        samples=args.samples,
+        horizon=args.horizon,
         baseline_budget=args.baseline_budget,
     )
     if args.fast or os.environ.get("JAXCHAIN_FAST") == "1":  # as the notebooks read it

@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 
 import diffrax
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -37,6 +38,7 @@ def _is_optimizer(name: str) -> bool:
 
 
 PROBLEMS = ("gentle", "iso")
+HORIZONS = ("slowest", "own")
 
 
 @dataclass
@@ -55,12 +57,15 @@ class Settings:
     periods: int = 2  # simulated tooth periods of the designed sprocket
     warmup: int = 1  # periods before the objective's window opens
     temperature: float = 0.007  # soft-max temperature, fraction of the reference peak
+    samples: int = 8  # soft peak: trapezoid parts per fixed step (0: the solver's stages)
+    horizon: str = "own"  # "own": each member over `periods` of its own; "slowest": all
+    # members over the slowest's (the window fits the slowest member either way)
     dt: float = 4e-6  # fixed step of the optimized solve [s]
     contact_width: float = 3e-6  # roller/tooth onset regularization of the optimized model [m]
     joint_slip: float = 2e-2  # joint friction's creep speed in the optimized model [m/s]
     ensemble: tuple[float, ...] = (0.5, 1.0, 1.5)  # speed factors of the operating points
     wear: tuple[float, ...] = (0.0, 0.02)  # chain elongations of the operating points
-    iterations: int = 40
+    iterations: int = 15
     optimizer: str = "adam"
     learning_rate: float = 0.25
     clip: float = 100.0  # largest gradient norm passed to the optimizer [N] (0: no clipping)
@@ -99,6 +104,13 @@ class Settings:
             raise ValueError(
                 f"need 0 <= warmup < periods (window of at least one period), got warmup="
                 f"{self.warmup}, periods={self.periods}"
+            )
+        if self.horizon not in HORIZONS:
+            raise ValueError(f"horizon must be one of {HORIZONS}, got {self.horizon!r}")
+        if not 0 <= self.samples <= 64:
+            raise ValueError(
+                f"samples must be in [0, 64] (0: the soft peak integrated by the solver's "
+                f"stages; 8 resolves the 4 µs step), got {self.samples}"
             )
         if self.iterations < 1:
             raise ValueError(f"iterations must be >= 1, got {self.iterations}")
@@ -219,9 +231,9 @@ class Problem:
 
         return jax.process_count() > 1
 
-    def members(self, profile):
+    def members(self, profile, points=None):
         law, joints = self.design_law(), self.design_joint_friction()
-        points = self.operating_points
+        points = self.operating_points if points is None else points
 
         def member(i):
             f, e = points[i]
@@ -231,23 +243,80 @@ class Problem:
             return jc.distributed.local_members(len(points), member)
         return [member(i) for i in range(len(points))]
 
-    def make_objective(self, reference: float) -> ProfileObjective:
+    def make_objective(self, reference: float) -> ProfileObjective | SpeedGroups:
+        """The design objective; with ``horizon`` "own" one objective per speed, each
+        solving its members over ``periods`` of their own tooth periods, combined."""
         s = self.settings
         self.reference = reference
-        self.objective = ProfileObjective(
-            self.space,
-            self.members,
-            t1=self.t1,
-            t_start=self.t_start,
-            temperature=s.temperature * reference,
-            reference=reference,
-            dt=s.dt,
-            take_up=self.take_up,
-            combine="max" if s.problem == "gentle" else "mean",
-            throw=False,  # a failed member is reported by the run (NaN value, its message)
-            sharding="auto" if self.shared else None,
-        )
+
+        def objective(points, t1, t_start):
+            return ProfileObjective(
+                self.space,
+                lambda profile: self.members(profile, points),
+                t1=t1,
+                t_start=t_start,
+                temperature=s.temperature * reference,
+                reference=reference,
+                samples=s.samples,
+                dt=s.dt,
+                take_up=self.take_up,
+                combine="max" if s.problem == "gentle" else "mean",
+                throw=False,  # a failed member is reported by the run (NaN value, its message)
+                sharding="auto" if self.shared else None,
+            )
+
+        if s.horizon == "slowest":
+            self.objective = objective(self.operating_points, self.t1, self.t_start)
+        else:
+            self.objective = SpeedGroups(
+                [
+                    objective([(f, e) for e in s.wear], self.t1 * slow, self.t_start * slow)
+                    for f in s.ensemble
+                    for slow in [min(s.ensemble) / f]
+                ],
+                s.temperature * reference if s.problem == "gentle" else None,
+            )
         return self.objective
+
+
+class SpeedGroups:
+    """Several :class:`ProfileObjective` (one per speed, of equally many members each) as
+    one: their values combined as the members of one would be — a soft maximum (``tau``)
+    of log-mean-exp values of equal-sized groups is the log-mean-exp of all members, a
+    mean of equal-sized means the mean — with the gradient by the same weights. The
+    members' results are concatenated in the groups' order."""
+
+    def __init__(self, groups: list[ProfileObjective], tau: float | None):
+        self.groups, self.tau, self._offset = groups, tau, 0
+
+    @property
+    def evaluations(self) -> int:
+        return self._offset + sum(g.evaluations for g in self.groups)
+
+    @evaluations.setter
+    def evaluations(self, n: int) -> None:
+        self._offset = n - sum(g.evaluations for g in self.groups)
+
+    def _weights(self, values):
+        v = jnp.stack(values)
+        if self.tau is None:
+            return jnp.mean(v), jnp.full(v.shape, 1.0 / v.shape[0])
+        lse = jax.nn.logsumexp(v / self.tau)
+        return self.tau * (lse - math.log(v.shape[0])), jnp.exp(v / self.tau - lse)
+
+    @staticmethod
+    def _members(outs):
+        return jax.tree_util.tree_map(lambda *x: jnp.concatenate(x), *outs)
+
+    def value(self, u):
+        outs = [g.value(u) for g in self.groups]
+        return self._weights([v for v, _ in outs])[0], self._members([o for _, o in outs])
+
+    def value_and_grad(self, u):
+        outs = [g.value_and_grad(u) for g in self.groups]
+        value, w = self._weights([v for v, _, _ in outs])
+        grad = sum(wi * g for wi, (_, g, _) in zip(w, outs, strict=True))
+        return value, grad, self._members([o for _, _, o in outs])
 
 
 def gentle_space(chain: jc.ChainSpec, teeth: int) -> tuple[DesignSpace, jc.FreeformProfile]:

@@ -189,8 +189,9 @@ def test_design_freedoms_reads_both_runs(tmp_path):
 @pytest.mark.slow
 def test_step_convergence_quick(tmp_path):
     """The step study's quick run (4 and 2 µs at the box middle of the main job's default
-    objective): each row's value and gradient against the finest step's, the values
-    within 1 % of each other (the gradients are the study's finding, not a bound)."""
+    objective in the job's form: sampled soft peak, each member over its own periods):
+    each row's value and gradient against the finest step's, the values within 1 % of
+    each other (the gradients are the study's finding, not a bound)."""
     from benchmarks.step_convergence import main
 
     res = main(["--quick", "--out", str(tmp_path)])

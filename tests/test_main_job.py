@@ -159,6 +159,7 @@ def test_bad_options_are_explained():
         (["--clip", "nan"], r"clip must be a finite number >= 0 \(0: no clipping\), got nan"),
         (["--ensemble", "1,nan"], r"ensemble speed factors must be in \[0.2, 5\]"),
         (["--dt", "1e-3"], "dt must be <= 2e-5 s"),
+        (["--samples", "-1"], r"samples must be in \[0, 64\] \(0: the soft peak integrated"),
         (["--pretension", "-1"], r"pretension must be a finite number > 0 \[N\], got -1.0"),
         # a drive whose load the pretension cannot carry: the builder's fix, in options
         (["--scene", "drive", "--load", "30"], r"pretension >= 206.4 N.*--pretension \[N\]"),
@@ -193,7 +194,7 @@ def test_fast_keeps_the_options_given():
     s, _ = parse(["--fast", "--periods", "3", "--iterations", "5", "--ensemble", "0.9,1.1"])
     assert (s.periods, s.iterations, s.ensemble, s.baseline_budget) == (3, 5, (0.9, 1.1), 4)
     s, _ = parse([])
-    assert (s.periods, s.iterations, s.ensemble) == (2, 40, (0.5, 1.0, 1.5))
+    assert (s.periods, s.iterations, s.ensemble) == (2, 15, (0.5, 1.0, 1.5))
 
 
 def test_an_optimizer_must_be_an_optax_optimizer():
@@ -221,6 +222,55 @@ def test_a_checkpoint_with_damaged_values_is_refused(tmp_path, u, match):
 
 def test_jaxchain_fast_is_read_as_the_notebooks_read_it(monkeypatch):
     monkeypatch.setenv("JAXCHAIN_FAST", "0")
-    assert parse([])[0].iterations == 40
+    assert parse([])[0].iterations == 15
     monkeypatch.setenv("JAXCHAIN_FAST", "1")
     assert parse([])[0].iterations == 3
+
+
+def test_speed_groups_combine_as_one_objective_over_all_members():
+    """``--horizon own`` solves each speed as its own objective; combined, they are the
+    one objective over all members: the soft maximum of equal-sized groups' log-mean-exp
+    values is the log-mean-exp of every member (the mean of means the mean), and the
+    gradient follows by the same weights. Checked on stand-in groups with known members."""
+    import jax
+
+    from jaxchain.design import Observed
+    from optimize.problem import SpeedGroups
+
+    tau = 20.0
+    members = jnp.array([[1500.0, 1530.0], [1480.0, 1400.0], [1600.0, 1590.0]])  # (speed, wear)
+    grads = jnp.arange(12.0).reshape(3, 2, 2)  # each member's gradient in a 2-vector u
+
+    def lme(v):
+        return tau * (jax.nn.logsumexp(v / tau) - jnp.log(v.size))
+
+    class Group:
+        evaluations = 0
+
+        def __init__(self, k, combine):
+            self.k, self.combine = k, combine
+
+        def _value(self, v):
+            return lme(v) if self.combine == "max" else jnp.mean(v)
+
+        def value(self, u):
+            v = members[self.k]
+            return self._value(v), Observed(v, jnp.zeros(2, int), jnp.ones(2, int))
+
+        def value_and_grad(self, u):
+            v = members[self.k]
+            g = jax.grad(lambda x: self._value(x))(v) @ grads[self.k]
+            return self._value(v), g, self.value(u)[1]
+
+    for combine, tau_groups in (("max", tau), ("mean", None)):
+        combined = SpeedGroups([Group(k, combine) for k in range(3)], tau_groups)
+        value, grad, out = combined.value_and_grad(jnp.zeros(2))
+        flat = members.reshape(-1)
+        whole = lme if combine == "max" else jnp.mean
+        one, one_grad = whole(flat), jax.grad(whole)(flat)
+        assert abs(float(value) - float(one)) < 1e-9
+        np.testing.assert_allclose(grad, one_grad @ grads.reshape(6, 2), rtol=1e-12)
+        np.testing.assert_array_equal(out.value, flat)  # speeds outer, as operating_points
+        assert float(combined.value(jnp.zeros(2))[0]) == float(value)
+    combined.evaluations = 42  # a resumed run restores its count
+    assert combined.evaluations == 42

@@ -286,6 +286,13 @@ BAD = [
     (lambda: window_weight(0.4, 0.5, -0.1), ValueError, "rise must be >= 0 s"),
     (lambda: jc.observers.SoftPeak(temperature=0.0), ValueError, "SoftPeak.temperature must be"),
     (lambda: jc.observers.PeakRecord(samples=1), ValueError, "samples must be an int >= 2"),
+    (lambda: jc.observers.SampledSoftPeak(samples=2.0), TypeError, "samples must be an integer"),
+    (lambda: soft_peak_force(SCENE, 1e-3, samples=-1), ValueError, "samples must be an integer >="),
+    (
+        lambda: objective(objective=jc.observers.SoftPeak(), samples=8),
+        ValueError,
+        "an objective given .SoftPeak. carries its own: pass samples=0",
+    ),
     (lambda: ProfileObjective("iso", lambda p: SCENE, t1=1e-3), TypeError, "space must be a jc"),
     (lambda: ProfileObjective(SPACE, None, t1=1e-3), TypeError, "build must be a function"),
     (lambda: objective(temperature="20"), TypeError, "temperature must be a real number"),
