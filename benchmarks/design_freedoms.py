@@ -1,7 +1,7 @@
 """What each freedom of the tooth buys, on the main job's six operating points.
 
-    python -m optimize --problem iso --out benchmarks/results/optimize_iso   # 460 s
-    python -m optimize --out benchmarks/results/optimize_default              # 640-700 s
+    python -m optimize --problem iso --out benchmarks/results/optimize_iso   # ~8 min
+    python -m optimize --out benchmarks/results/optimize_default              # 503 s
     python -m benchmarks.design_freedoms                                      # seconds
 
 Reads the two main-job runs (``--iso``, ``--freeform``: their ``results.json``) and puts
