@@ -9,7 +9,7 @@ counts). ``--problem iso`` designs inside the ISO 606 box instead (four paramete
 The design objective solves each operating point over two of its own tooth periods
 (``--horizon own``) with fixed 4 µs steps and the soft peak sampled 8 times per step
 (``--samples``): its gradient then converges as the step shrinks; over longer solves a
-fast member's sensitivity to its state grows until the gradient no longer describes the
+fast member's sensitivity to its state grows until the gradient stops describing the
 objective (``benchmarks/step_convergence.py``). Adam runs first, then Nelder–Mead on
 the same objective; both designs are re-measured (tight tolerance, nominal and second
 contact law) and the better one is delivered.
