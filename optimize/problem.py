@@ -267,15 +267,14 @@ class Problem:
 
         if s.horizon == "slowest":
             self.objective = objective(self.operating_points, self.t1, self.t_start)
-        else:
-            self.objective = SpeedGroups(
-                [
-                    objective([(f, e) for e in s.wear], self.t1 * slow, self.t_start * slow)
-                    for f in s.ensemble
-                    for slow in [min(s.ensemble) / f]
-                ],
-                s.temperature * reference if s.problem == "gentle" else None,
-            )
+            return self.objective
+        groups = []
+        for f in s.ensemble:
+            scale = min(s.ensemble) / f  # this speed's tooth period over the slowest's
+            points = [(f, e) for e in s.wear]
+            groups.append(objective(points, self.t1 * scale, self.t_start * scale))
+        tau = s.temperature * reference if s.problem == "gentle" else None  # None: mean
+        self.objective = SpeedGroups(groups, tau)
         return self.objective
 
 
