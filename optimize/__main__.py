@@ -35,7 +35,7 @@ from pathlib import Path
 # host callback are what XLA's persistent compilation cache keeps (see main()).
 os.environ.setdefault("EQX_ON_ERROR", "nan")
 
-from .problem import Settings  # noqa: E402
+from .problem import HORIZONS, PROBLEMS, Settings  # noqa: E402
 
 
 def _floats(text: str) -> tuple[float, ...]:
@@ -83,7 +83,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     )
     ap.add_argument(
         "--problem",
-        choices=["gentle", "iso"],
+        choices=PROBLEMS,
         default=d.problem,
         help="gentle: free-form asymmetric tooth, worst peak over speeds and wear "
         "(default); iso: the four ISO 606 parameters inside the standard's box",
@@ -179,7 +179,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     )
     ap.add_argument(
         "--horizon",
-        choices=["slowest", "own"],
+        choices=HORIZONS,
         default=d.horizon,
         help="each member's solve: --periods of its own tooth periods (default; one compiled "
         "solve per speed) or the slowest member's periods (one solve, 3× the periods at "
