@@ -25,12 +25,14 @@ dimension).
 from __future__ import annotations
 
 import datetime
+import math
 import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -86,17 +88,69 @@ def _best(f, repeats: int) -> float:
     return min(times)
 
 
-def objective(space: DesignSpace, *, dt: float = DT, **kwargs) -> ProfileObjective:
+def objective(
+    space: DesignSpace, *, dt: float = DT, samples: int = 0, **kwargs
+) -> ProfileObjective:
     """The design objective of the study (module docstring) over ``space``, fixed steps
-    of ``dt``; ``kwargs`` go to :class:`ProfileObjective` (e.g. ``throw=False``)."""
+    of ``dt``, the soft peak's window integrated by the solver (``samples`` 0) or sampled
+    ``samples`` times per step; ``kwargs`` go to :class:`ProfileObjective` (e.g.
+    ``throw=False``)."""
     return ProfileObjective(
         space, build, t1=2 * PERIOD, t_start=PERIOD, temperature=20.0, reference=1500.0,
-        dt=dt, **kwargs,
+        dt=dt, samples=samples, **kwargs,
     )  # fmt: skip
 
 
-def measure(space: DesignSpace, repeats: int, seed: int = 0, dt: float = DT) -> dict:
-    obj = objective(space, dt=dt)
+# the every-gap objective: MEMBERS solves, each with the sprocket turned by z/MEMBERS
+# pitches and EVERY_GAP_PERIODS tooth periods long, so that every gap meshes in one window
+MEMBERS = 6
+EVERY_GAP_PERIODS = 4
+
+
+def build_turned(profile) -> list:
+    """``MEMBERS`` engagements of ``profile``, each settled with the sprocket turned by
+    z/MEMBERS more pitches (gap k centred at angle0 + 2πk/z), ``EVERY_GAP_PERIODS`` + 1
+    entry rollers: over periods 2 to EVERY_GAP_PERIODS member j meshes z/MEMBERS gaps
+    of its own, and the members together mesh every gap once. For a uniform tooth the
+    members are the same solve turned by whole pitches (equal values)."""
+    base = jc.scenes.engagement(
+        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=EVERY_GAP_PERIODS + 1,
+        roller_contact=LAW, joint_friction=JOINTS, settle=False,
+    )  # fmt: skip
+    a0 = base.sprockets[0].angle0
+    turn = 2 * math.pi / Z * (Z // MEMBERS)
+    return [
+        jc.scenes.equilibrate(eqx.tree_at(lambda s: s.sprockets[0].angle0, base, a0 - j * turn))
+        for j in range(MEMBERS)
+    ]
+
+
+def every_gap_objective(
+    space: DesignSpace, *, dt: float = DT, samples: int = 0, **kwargs
+) -> ProfileObjective:
+    """The study's objective over every gap: the soft maximum over periods 2 to
+    ``EVERY_GAP_PERIODS`` of :func:`build_turned`'s members (one window, the members'
+    values combined by a soft maximum of 20 N). A per-gap coordinate then moves the
+    objective whichever gap it shapes; in :func:`objective`'s single two-period solve
+    only the gaps holding the wrapped rollers and the one that meshes do."""
+    if Z % MEMBERS:
+        raise ValueError(f"MEMBERS ({MEMBERS}) must divide the teeth ({Z})")
+    return ProfileObjective(
+        space, build_turned, t1=EVERY_GAP_PERIODS * PERIOD, t_start=PERIOD, temperature=20.0,
+        reference=1500.0, member_temperature=20.0, dt=dt, samples=samples, **kwargs,
+    )  # fmt: skip
+
+
+def measure(
+    space: DesignSpace,
+    repeats: int,
+    seed: int = 0,
+    dt: float = DT,
+    samples: int = 0,
+    obj: ProfileObjective | None = None,
+) -> dict:
+    """Value and value + gradient of ``obj`` (default: :func:`objective` over ``space``)."""
+    obj = objective(space, dt=dt, samples=samples) if obj is None else obj
     u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
     scenes = obj.scenes(u)
     t = time.perf_counter()

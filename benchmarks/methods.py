@@ -1,6 +1,6 @@
 """Gradients against gradient-free methods at 4, 36 and 72 design coordinates.
 
-    python -m benchmarks.methods            # full study (35 min on 2 busy cores)
+    python -m benchmarks.methods            # full study (about an hour on 2 cores)
     python -m benchmarks.methods --quick    # smoke run (4 and 36 coordinates, small budget)
 
 Writes ``benchmarks/results/methods.json`` and ``methods.png`` (best objective so far
@@ -9,10 +9,17 @@ against simulation-equivalents, per method, per dimension).
 Objective, the same for every method and dimension: the design objective of
 :mod:`benchmarks.gradient_cost` (``gradient_cost.objective``: 08B engagement, z = 18,
 1000 rpm, 1000 N, one operating point, design contact law, fixed 4 µs steps over two
-tooth periods, the soft peak roller/tooth force of the second [N]) over its design spaces
+tooth periods, the soft peak roller/tooth force of the second [N], its window sampled
+``SAMPLES`` times per step as in ``python -m optimize``; ``--samples 0`` integrates it
+by the solver's stages, which ripples the value when a force peak is shorter than a step)
+over its design spaces
 (``gradient_cost.spaces``): 4 coordinates (the ISO 606 box), 36 (per-gap seating radius
 and clockwise seat angle) and 72 (per-gap seating radius, both seat angles and seat
-offset). Every evaluation builds and settles the scene for its design
+offset). ``--dimensions 36g`` adds the 36-coordinate space on the every-gap objective
+(``gradient_cost.every_gap_objective``: six solves of four tooth periods, the sprocket
+turned by three pitches from one to the next, so that every gap meshes once in the
+window and every per-gap coordinate is live; budget 150). Every evaluation builds and
+settles the scene for its design
 (``ProfileObjective.value`` / ``value_and_grad``, as ``python -m optimize`` calls them);
 the statics solve is not counted as a simulation.
 
@@ -25,6 +32,8 @@ wall-time ratio of the run's evaluations, statics included, is reported beside i
 Methods:
 
 * Adam (optax) on reverse-mode gradients, learning rate ``LEARNING_RATE`` in u;
+* L-BFGS (SciPy's L-BFGS-B, no bounds) on the same value-and-gradients, each of its
+  evaluations (line-search trials included) counted at the ratio;
 * CMA-ES (the ``cma`` package), step size ``SIGMA0`` in u, its default population,
   several seeds;
 * Nelder-Mead (SciPy, adaptive parameters), initial simplex of unit steps in u.
@@ -35,8 +44,9 @@ and ends an Adam run; the failures are counted.
 
 Reported per dimension: each run's best value and the simulation-equivalents at which it
 found it; the simulations each method needs to reach a common target (90 % of the largest
-decrease any method found); and for each CMA-ES seed, the simulation-equivalents Adam
-needs to reach that seed's best against those CMA-ES spent on it (the speed-up). And how
+decrease any method found); and for each CMA-ES seed and each gradient method, the
+simulation-equivalents the gradient method needs to reach that seed's best against those
+CMA-ES spent on it (the speed-up; none where it never gets there). And how
 far the gradient predicts the objective, at the start and at Adam's best: the value after
 steps of at most ``h`` along the steepest descent direction, ``PROBE_STEPS``, against the
 first-order prediction (``--probes-only`` re-measures these on the rows of an existing
@@ -66,6 +76,8 @@ SIGMA0 = 1.0  # CMA-ES's initial step size in u
 TARGET_FRACTION = 0.9  # the common target: this fraction of the largest decrease found
 FAILED = 1e6  # the value a gradient-free method sees for a failed solve [N]
 PROBE_STEPS = (1e-3, 1e-2, 0.1, 1.0)  # steps along the descent direction (largest |Δu|)
+SAMPLES = 8  # the soft peak's samples per step (0: integrated by the solver's stages)
+GRADIENT_METHODS = ("Adam", "L-BFGS")
 
 
 def plan(quick: bool) -> dict:
@@ -73,8 +85,21 @@ def plan(quick: bool) -> dict:
     if quick:
         return {"dimensions": ("4", "36"), "budget": {"4": 24, "36": 24}, "seeds": (1,),
                 "repeats": 2}  # fmt: skip
-    return {"dimensions": ("4", "36", "72"), "budget": {"4": 150, "36": 300, "72": 300},
+    return {"dimensions": ("4", "36", "72"),
+            "budget": {"4": 150, "36": 300, "72": 300, "36g": 150},
             "seeds": (1, 2, 3), "repeats": 5}  # fmt: skip
+
+
+def space_of(name: str, spaces: dict):
+    """The design space of a row ("36g": the 36-coordinate space)."""
+    return spaces[name.removesuffix("g")]
+
+
+def objective_of(name: str, space, dt: float, samples: int, **kwargs):
+    """The objective of a row: ``gradient_cost.objective``, or for "…g" rows
+    ``gradient_cost.every_gap_objective``."""
+    make = gradient_cost.every_gap_objective if name.endswith("g") else gradient_cost.objective
+    return make(space, dt=dt, samples=samples, **kwargs)
 
 
 class _Budget(Exception):
@@ -162,6 +187,33 @@ def adam(obj, u0, ratio: float, budget: float) -> tuple[dict, Tracker, np.ndarra
     return tr.result("Adam", None, wall, learning_rate=LEARNING_RATE), tr, grad0
 
 
+def lbfgs(obj, u0, ratio: float, budget: float) -> dict:
+    from scipy.optimize import minimize
+
+    tr = Tracker(budget)
+
+    def f(u):
+        if not tr.room(ratio):
+            raise _Budget
+        value, grad, _ = obj.value_and_grad(jnp.asarray(u))
+        grad = np.asarray(grad, dtype=float)
+        if not np.all(np.isfinite(grad)):
+            tr.record(ratio, math.nan, u)
+            raise _Budget  # a failed solve ends the run, as for Adam
+        return tr.record(ratio, float(value), u), grad
+
+    stop = "budget"
+    options = {"maxfun": 10**9, "maxiter": 10**9, "ftol": 1e-12, "gtol": 1e-8}
+    t = time.perf_counter()
+    try:
+        res = minimize(f, np.asarray(u0), jac=True, method="L-BFGS-B", options=options)
+        stop = str(res.message)
+    except _Budget:
+        stop = "failed solve" if tr.failed else "budget"
+    wall = time.perf_counter() - t
+    return tr.result("L-BFGS", None, wall, stop=stop)
+
+
 def cma_es(obj, u0, budget: float, seed: int) -> dict:
     import cma
 
@@ -221,10 +273,10 @@ def probe(obj, u, fine) -> dict:
             "steps": steps, "half_step_values_N": half}  # fmt: skip
 
 
-def add_probes(row: dict, space, dt: float) -> None:
+def add_probes(row: dict, space, dt: float, samples: int) -> None:
     """The gradient's reach at the start and at Adam's best (into ``row``)."""
-    obj = gradient_cost.objective(space, dt=dt, throw=False)
-    fine = gradient_cost.objective(space, dt=dt / 2, throw=False)
+    obj = objective_of(row["space"], space, dt, samples, throw=False)
+    fine = objective_of(row["space"], space, dt / 2, samples, throw=False)
     adam_u = np.asarray(next(r for r in row["runs"] if r["method"] == "Adam")["best_u"])
     row["probe"] = {
         "start": probe(obj, np.zeros(row["dimension"]), fine),
@@ -245,35 +297,41 @@ def analyse(row: dict) -> None:
     row["target_N"] = target
     for r in runs:
         r["sims_to_target"] = sims_to_reach(r["curve"], target)
-    adam_run = next(r for r in runs if r["method"] == "Adam")
-    speedups = []
-    for r in runs:
-        if r["method"] != "CMA-ES":
-            continue
-        need = sims_to_reach(adam_run["curve"], r["best_N"])
-        r["adam_sims_to_this_best"] = need
-        r["speedup"] = None if need is None else r["best_at_sims"] / need
-        speedups.append(r["speedup"])
-    reached = [s for s in speedups if s is not None]
-    row["speedup_over_cma"] = {
-        "per_seed": speedups,
-        "median": float(np.median(reached)) if len(reached) == len(speedups) else None,
-        "min": min(reached) if len(reached) == len(speedups) else None,
-        "seeds_adam_reached": len(reached),
-    }
+    cma_runs = [r for r in runs if r["method"] == "CMA-ES"]
+    row["speedup_over_cma"] = {}
+    for grad_run in (r for r in runs if r["method"] in GRADIENT_METHODS):
+        m = grad_run["method"]
+        speedups = []
+        for r in cma_runs:
+            need = sims_to_reach(grad_run["curve"], r["best_N"])
+            r.setdefault("sims_to_this_best", {})[m] = need
+            speedups.append(None if need is None else r["best_at_sims"] / need)
+        reached = [s for s in speedups if s is not None]
+        every = len(reached) == len(speedups)
+        row["speedup_over_cma"][m] = {
+            "per_seed": speedups,
+            "median": float(np.median(reached)) if every else None,
+            "min": min(reached) if every else None,
+            "seeds_reached": len(reached),
+        }
 
 
-def study(name: str, space, budget: float, seeds, repeats: int, dt: float) -> dict:
-    cost = gradient_cost.measure(space, repeats, dt=dt)
+def study(name: str, space, budget: float, seeds, repeats: int, dt: float, samples: int) -> dict:
+    cost = gradient_cost.measure(space, repeats, obj=objective_of(name, space, dt, samples))
     ratio = cost["ratio"]
-    print(f"dimension {space.size}: value+gradient / value = {ratio:.2f}", flush=True)
-    obj = gradient_cost.objective(space, dt=dt, throw=False)
+    print(f"{name}: value+gradient / value = {ratio:.2f}", flush=True)
+    obj = objective_of(name, space, dt, samples, throw=False)
     u0 = jnp.zeros(space.size)
-    start = float(obj.value(u0)[0])
+    start, members = obj.value(u0)
+    start = float(start)
     runs = []
     run, _, grad0 = adam(obj, u0, ratio, budget)
     runs.append(run)
     print(f"  Adam: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims", flush=True)
+    run = lbfgs(obj, u0, ratio, budget)
+    runs.append(run)
+    print(f"  L-BFGS: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims"
+          f" ({run['stop']})", flush=True)  # fmt: skip
     for seed in seeds:
         run = cma_es(obj, u0, budget, seed)
         runs.append(run)
@@ -293,13 +351,19 @@ def study(name: str, space, budget: float, seeds, repeats: int, dt: float) -> di
         "cost": cost,
         # seconds per Adam step over seconds per gradient-free evaluation, statics included
         "wall_ratio": runs[0]["seconds_per_evaluation"]
-        / float(np.median([r["seconds_per_evaluation"] for r in runs[1:]])),
+        / float(
+            np.median(
+                [r["seconds_per_evaluation"] for r in runs if r["method"] not in GRADIENT_METHODS]
+            )
+        ),
         "start_N": start,
+        # the members at the start (every-gap rows: one uniform tooth turned, all equal)
+        "start_members_N": np.asarray(members.value, dtype=float).tolist(),
         "live_coordinates": int(np.sum(g > 1e-6 * g.max())),
         "runs": runs,
     }
     analyse(row)
-    add_probes(row, space, dt)
+    add_probes(row, space, dt, samples)
     return row
 
 
@@ -311,7 +375,8 @@ def chart(results: dict, path) -> None:
 
     rows = results["rows"]
     fig, axes = plt.subplots(1, len(rows), figsize=(5 * len(rows), 4), squeeze=False)
-    colors = {"Adam": "tab:red", "CMA-ES": "tab:blue", "Nelder-Mead": "tab:green"}
+    colors = {"Adam": "tab:red", "L-BFGS": "tab:purple", "CMA-ES": "tab:blue",
+              "Nelder-Mead": "tab:green"}  # fmt: skip
     for ax, row in zip(axes[0], rows, strict=True):
         labelled = set()
         for r in row["runs"]:
@@ -319,11 +384,13 @@ def chart(results: dict, path) -> None:
             m = r["method"]
             label = None
             if m not in labelled:
-                label = f"Adam (value+grad = {row['ratio']:.1f} sims)" if m == "Adam" else m
+                label = m
+                if m in GRADIENT_METHODS:
+                    label = f"{m} (value+grad = {row['ratio']:.1f} sims)"
                 labelled.add(m)
             ax.step(np.r_[0.5, s], np.r_[row["start_N"], b], where="post", color=colors[m],
-                    lw=2.0 if m == "Adam" else 1.2, alpha=1.0 if m != "CMA-ES" else 0.7,
-                    label=label)  # fmt: skip
+                    lw=2.0 if m in GRADIENT_METHODS else 1.2,
+                    alpha=1.0 if m != "CMA-ES" else 0.7, label=label)  # fmt: skip
         ax.axhline(row["target_N"], color="0.4", ls=":", lw=0.8, label="target (90 %)")
         ax.set_xscale("log")
         ax.set_xlim(0.8, row["budget"] * 1.1)
@@ -331,13 +398,16 @@ def chart(results: dict, path) -> None:
         ax.set_ylim(lo - 0.05 * (row["start_N"] - lo), row["start_N"] + 0.1 * (row["start_N"] - lo))
         ax.set_xlabel("simulation-equivalents")
         ax.set_ylabel("best soft peak force so far [N]")
-        ax.set_title(f"{row['dimension']} coordinates ({row['live_coordinates']} live)")
+        every = ", every gap" if row["space"].endswith("g") else ""
+        ax.set_title(f"{row['dimension']} coordinates ({row['live_coordinates']} live{every})")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     dt = results["settings"].get("dt", gradient_cost.DT)
+    samples = results["settings"].get("samples", 0)
+    how = f"window sampled {samples}× per step" if samples else "window integrated by the stages"
     fig.suptitle(
         f"Gradients against gradient-free methods (08B engagement, z = 18, fixed "
-        f"{dt * 1e6:g} µs steps)"
+        f"{dt * 1e6:g} µs steps, {how})"
     )
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
@@ -356,7 +426,17 @@ def main(argv=None) -> dict:
         help="fixed step of the objective's solves [s] (default %(default)s)",
     )
     ap.add_argument(
-        "--dimensions", default=None, help="comma-separated subset of 4,36,72 (default: the plan's)"
+        "--samples",
+        type=int,
+        default=SAMPLES,
+        help="the soft peak's samples per step, 0: integrated by the solver's stages "
+        "(default %(default)s)",
+    )
+    ap.add_argument(
+        "--dimensions",
+        default=None,
+        help="comma-separated rows of 4,36,72,36g (default: 4,36,72; 36g: the 36-coordinate "
+        "space on the every-gap objective)",
     )
     ap.add_argument(
         "--seeds", type=int, default=None, help="CMA-ES seeds 1..SEEDS (default: the plan's)"
@@ -369,7 +449,11 @@ def main(argv=None) -> dict:
         results = json.loads((args.out / f"{args.name}.json").read_text())
         spaces = gradient_cost.spaces()
         for row in results["rows"]:
-            add_probes(row, spaces[row["space"]], results["settings"].get("dt", gradient_cost.DT))
+            settings = results["settings"]
+            add_probes(
+                row, space_of(row["space"], spaces), settings.get("dt", gradient_cost.DT),
+                settings.get("samples", 0),
+            )  # fmt: skip
         results["probes_command"] = "python -m benchmarks.methods --probes-only"
         results["probes_date"] = datetime.date.today().isoformat()
         results["probes_s"] = time.perf_counter() - start
@@ -385,7 +469,15 @@ def main(argv=None) -> dict:
         p["seeds"] = tuple(range(1, args.seeds + 1))
     spaces = gradient_cost.spaces()
     rows = [
-        study(name, spaces[name], p["budget"][name], p["seeds"], p["repeats"], args.dt)
+        study(
+            name,
+            space_of(name, spaces),
+            p["budget"][name],
+            p["seeds"],
+            p["repeats"],
+            args.dt,
+            args.samples,
+        )  # fmt: skip
         for name in p["dimensions"]
     ]
     results = {
@@ -396,6 +488,7 @@ def main(argv=None) -> dict:
             for flag, on in (
                 ("--quick", args.quick),
                 (f"--dt {args.dt:g}", args.dt != gradient_cost.DT),
+                (f"--samples {args.samples}", args.samples != SAMPLES),
                 (f"--dimensions {args.dimensions}", args.dimensions),
                 (f"--seeds {args.seeds}", args.seeds is not None),
                 (f"--name {args.name}", args.name != "methods"),
@@ -406,6 +499,7 @@ def main(argv=None) -> dict:
         "machine": machine_info(),
         "settings": {
             "dt": args.dt,
+            "samples": args.samples,
             "learning_rate": LEARNING_RATE,
             "sigma0": SIGMA0,
             "target_fraction": TARGET_FRACTION,

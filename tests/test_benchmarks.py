@@ -94,7 +94,7 @@ def test_methods_benchmark_quick(tmp_path):
     for row in res["rows"]:
         assert row["ratio"] > 1.0
         runs = {r["method"]: r for r in row["runs"]}
-        assert set(runs) == {"Adam", "CMA-ES", "Nelder-Mead"}
+        assert set(runs) == {"Adam", "L-BFGS", "CMA-ES", "Nelder-Mead"}
         for r in row["runs"]:
             assert r["failed_solves"] == 0
             assert 0 < r["simulation_equivalents"] <= row["budget"] + 1e-9
@@ -107,6 +107,11 @@ def test_methods_benchmark_quick(tmp_path):
         assert adam["curve"][0] == [pytest.approx(row["ratio"]), pytest.approx(row["start_N"])]
         assert adam["best_N"] < row["start_N"] and runs["Nelder-Mead"]["best_N"] <= row["start_N"]
         assert row["target_N"] < row["start_N"]
+        lbfgs = runs["L-BFGS"]
+        assert lbfgs["simulation_equivalents"] == pytest.approx(lbfgs["evaluations"] * row["ratio"])
+        assert lbfgs["best_N"] < row["start_N"]
+        assert set(row["speedup_over_cma"]) == {"Adam", "L-BFGS"}
+    assert res["settings"]["samples"] == 8
     assert (tmp_path / "methods.png").stat().st_size > 10_000
 
 
