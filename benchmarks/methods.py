@@ -50,6 +50,8 @@ CMA-ES spent on it (the speed-up; none where it never gets there). And how
 far the gradient predicts the objective, at the start and at Adam's best: the value after
 steps of at most ``h`` along the steepest descent direction, ``PROBE_STEPS``, against the
 first-order prediction (``--probes-only`` re-measures these on the rows of an existing
+``methods.json``). ``--extend-cma BUDGET`` re-runs the CMA-ES seeds of an existing result
+file with a larger budget (same seeds: the first evaluations repeat) and re-analyses it
 ``methods.json``).
 """
 
@@ -393,7 +395,7 @@ def chart(results: dict, path) -> None:
                     alpha=1.0 if m != "CMA-ES" else 0.7, label=label)  # fmt: skip
         ax.axhline(row["target_N"], color="0.4", ls=":", lw=0.8, label="target (90 %)")
         ax.set_xscale("log")
-        ax.set_xlim(0.8, row["budget"] * 1.1)
+        ax.set_xlim(0.8, max(row["budget"], row.get("cma_budget", 0)) * 1.1)
         lo = min(r["best_N"] for r in row["runs"])
         ax.set_ylim(lo - 0.05 * (row["start_N"] - lo), row["start_N"] + 0.1 * (row["start_N"] - lo))
         ax.set_xlabel("simulation-equivalents")
@@ -413,12 +415,51 @@ def chart(results: dict, path) -> None:
     plt.close(fig)
 
 
+def extend_cma(out, name: str, budget: float, start: float) -> dict:
+    """Re-run each row's CMA-ES seeds of ``out/name.json`` with ``budget`` simulations,
+    replacing their runs, and re-analyse (targets and speed-ups)."""
+    results = json.loads((out / f"{name}.json").read_text())
+    spaces = gradient_cost.spaces()
+    settings = results["settings"]
+    for row in results["rows"]:
+        space = space_of(row["space"], spaces)
+        obj = objective_of(
+            row["space"], space, settings.get("dt", gradient_cost.DT), settings.get("samples", 0),
+            throw=False,
+        )  # fmt: skip
+        u0 = jnp.zeros(space.size)
+        for i, r in enumerate(row["runs"]):
+            if r["method"] != "CMA-ES":
+                continue
+            row["runs"][i] = cma_es(obj, u0, budget, r["seed"])
+            print(f"  {row['space']}: CMA-ES seed {r['seed']}, budget {budget:g}: best "
+                  f"{row['runs'][i]['best_N']:.2f} N at {row['runs'][i]['best_at_sims']:.0f} sims",
+                  flush=True)  # fmt: skip
+        row["cma_budget"] = budget
+        analyse(row)
+    results["extend_cma"] = {
+        "command": f"python -m benchmarks.methods --name {name} --extend-cma {budget:g}",
+        "date": datetime.date.today().isoformat(),
+        "seconds": time.perf_counter() - start,
+    }
+    (out / f"{name}.json").write_text(json.dumps(results, indent=1))
+    chart(results, out / f"{name}.png")
+    return results
+
+
 def main(argv=None) -> dict:
     ap = parser(__doc__)
     ap.add_argument(
         "--probes-only", action="store_true",
         help="only (re)measure the gradient probes of the rows in OUT/NAME.json",
     )  # fmt: skip
+    ap.add_argument(
+        "--extend-cma",
+        type=float,
+        default=None,
+        metavar="BUDGET",
+        help="re-run the CMA-ES seeds of OUT/NAME.json with this budget of simulations",
+    )
     ap.add_argument(
         "--dt",
         type=float,
@@ -460,6 +501,8 @@ def main(argv=None) -> dict:
         (args.out / f"{args.name}.json").write_text(json.dumps(results, indent=1))
         chart(results, args.out / f"{args.name}.png")
         return results
+    if args.extend_cma is not None:
+        return extend_cma(args.out, args.name, args.extend_cma, start)
     p = plan(args.quick)
     if args.dimensions:
         p["dimensions"] = tuple(d for d in args.dimensions.split(",") if d in p["budget"])
