@@ -1,6 +1,6 @@
 """Gradients against gradient-free methods at 4, 36 and 72 design coordinates.
 
-    python -m benchmarks.methods            # full study (about an hour on 2 cores)
+    python -m benchmarks.methods            # full study (45 min on 2 cores)
     python -m benchmarks.methods --quick    # smoke run (4 and 36 coordinates, small budget)
 
 Writes ``benchmarks/results/methods.json`` and ``methods.png`` (best objective so far
