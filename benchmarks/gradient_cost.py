@@ -72,10 +72,10 @@ def spaces() -> dict[str, DesignSpace]:
     }
 
 
-def build(profile):
+def build(profile, n_entry: int = 3, settle: bool = True):
     return jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=3, roller_contact=LAW,
-        joint_friction=JOINTS,
+        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=n_entry, roller_contact=LAW,
+        joint_friction=JOINTS, settle=settle,
     )  # fmt: skip
 
 
@@ -113,10 +113,7 @@ def build_turned(profile) -> list:
     entry rollers: over periods 2 to EVERY_GAP_PERIODS member j meshes z/MEMBERS gaps
     of its own, and the members together mesh every gap once. For a uniform tooth the
     members are the same solve turned by whole pitches (equal values)."""
-    base = jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=EVERY_GAP_PERIODS + 1,
-        roller_contact=LAW, joint_friction=JOINTS, settle=False,
-    )  # fmt: skip
+    base = build(profile, n_entry=EVERY_GAP_PERIODS + 1, settle=False)
     a0 = base.sprockets[0].angle0
     turn = 2 * math.pi / Z * (Z // MEMBERS)
     return [
@@ -146,11 +143,11 @@ def measure(
     repeats: int,
     seed: int = 0,
     dt: float = DT,
-    samples: int = 0,
     obj: ProfileObjective | None = None,
 ) -> dict:
-    """Value and value + gradient of ``obj`` (default: :func:`objective` over ``space``)."""
-    obj = objective(space, dt=dt, samples=samples) if obj is None else obj
+    """Value and value + gradient of ``obj`` (default: :func:`objective` over ``space``
+    with steps of ``dt``)."""
+    obj = objective(space, dt=dt) if obj is None else obj
     u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
     scenes = obj.scenes(u)
     t = time.perf_counter()

@@ -104,6 +104,12 @@ def objective_of(name: str, space, dt: float, samples: int, **kwargs):
     return make(space, dt=dt, samples=samples, **kwargs)
 
 
+def saved_steps(settings: dict) -> tuple[float, int]:
+    """The step and soft-peak samples a result file's rows were run with (files written
+    before ``samples`` was recorded integrated the soft peak: 0)."""
+    return settings.get("dt", gradient_cost.DT), settings.get("samples", 0)
+
+
 class _Budget(Exception):
     """The run's budget of simulation-equivalents is spent."""
 
@@ -404,8 +410,7 @@ def chart(results: dict, path) -> None:
         ax.set_title(f"{row['dimension']} coordinates ({row['live_coordinates']} live{every})")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    dt = results["settings"].get("dt", gradient_cost.DT)
-    samples = results["settings"].get("samples", 0)
+    dt, samples = saved_steps(results["settings"])
     how = f"window sampled {samples}× per step" if samples else "window integrated by the stages"
     fig.suptitle(
         f"Gradients against gradient-free methods (08B engagement, z = 18, fixed "
@@ -420,13 +425,9 @@ def extend_cma(out, name: str, budget: float, start: float) -> dict:
     replacing their runs, and re-analyse (targets and speed-ups)."""
     results = json.loads((out / f"{name}.json").read_text())
     spaces = gradient_cost.spaces()
-    settings = results["settings"]
     for row in results["rows"]:
         space = space_of(row["space"], spaces)
-        obj = objective_of(
-            row["space"], space, settings.get("dt", gradient_cost.DT), settings.get("samples", 0),
-            throw=False,
-        )  # fmt: skip
+        obj = objective_of(row["space"], space, *saved_steps(results["settings"]), throw=False)
         u0 = jnp.zeros(space.size)
         for i, r in enumerate(row["runs"]):
             if r["method"] != "CMA-ES":
@@ -490,11 +491,7 @@ def main(argv=None) -> dict:
         results = json.loads((args.out / f"{args.name}.json").read_text())
         spaces = gradient_cost.spaces()
         for row in results["rows"]:
-            settings = results["settings"]
-            add_probes(
-                row, space_of(row["space"], spaces), settings.get("dt", gradient_cost.DT),
-                settings.get("samples", 0),
-            )  # fmt: skip
+            add_probes(row, space_of(row["space"], spaces), *saved_steps(results["settings"]))
         results["probes_command"] = "python -m benchmarks.methods --probes-only"
         results["probes_date"] = datetime.date.today().isoformat()
         results["probes_s"] = time.perf_counter() - start
