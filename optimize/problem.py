@@ -65,7 +65,7 @@ class Settings:
     joint_slip: float = 2e-2  # joint friction's creep speed in the optimized model [m/s]
     ensemble: tuple[float, ...] = (0.5, 1.0, 1.5)  # speed factors of the operating points
     wear: tuple[float, ...] = (0.0, 0.02)  # chain elongations of the operating points
-    iterations: int = 15
+    iterations: int = 10
     optimizer: str = "adam"
     learning_rate: float = 0.25
     clip: float = 100.0  # largest gradient norm passed to the optimizer [N] (0: no clipping)
