@@ -206,3 +206,21 @@ def test_step_convergence_quick(tmp_path):
     assert abs(rows[4e-6]["value_change"]) < 0.01
     assert all(np.all(np.isfinite(r["gradient"])) for r in rows.values())
     assert (tmp_path / "step_convergence.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_drive_gradient_quick(tmp_path):
+    """The closed-drive gradient study's quick run (2 and 4 tooth periods, 4 µs): finite,
+    successful rows, the gradient larger over the longer solve, the fitted growth per
+    period from them, the chart written."""
+    from benchmarks.drive_gradient import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    rows = {r["periods"]: r for r in res["rows"]}
+    assert set(rows) == {2, 4}
+    assert all(r["result"] == "successful" and np.isfinite(r["grad_norm"]) for r in rows.values())
+    assert rows[4]["grad_norm"] > rows[2]["grad_norm"]
+    expected = (rows[4]["grad_norm"] / rows[2]["grad_norm"]) ** 0.5
+    assert res["growth_per_period"]["drive"] == pytest.approx(expected, rel=1e-9)
+    assert res["growth_per_period"]["engagement"] is None and res["band"] is None
+    assert (tmp_path / "drive_gradient.png").stat().st_size > 10_000
