@@ -40,11 +40,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._cli import finish, parse, parser
+from benchmarks.quiet_drive import CHAIN, LOAD, N_LINKS, PRETENSION, Z_DRIVEN, Z, drive_scene
 from benchmarks.work_precision import machine_info
 
-CHAIN = "08B"
-Z, Z_DRIVEN, N_LINKS = 18, 36, 60
-RPM, LOAD, PRETENSION = 1000.0, 40.0, 300.0
+RPM = 1000.0
 TAKE_UP = 2 * PRETENSION  # as jc.scenes.drive settles the drive
 PERIOD = 60.0 / (RPM * Z)
 DT = 4e-6
@@ -100,17 +99,7 @@ def builder(scene: str, slip=2e-2, periods: int = 2):
 
     chain, law = _model()
     if scene == "drive":
-        return lambda p: jc.scenes.drive(
-            chain,
-            teeth=(Z, Z_DRIVEN),
-            n_links=N_LINKS,
-            speed_rpm=RPM,
-            load_torque=LOAD,
-            pretension=PRETENSION,
-            profiles=[p, jc.ToothProfile.iso606(chain, Z_DRIVEN, "min")],
-            roller_contact=law,
-            joint_friction=joints(slip),
-        )
+        return lambda p: drive_scene(p, RPM, roller_contact=law, joint_friction=joints(slip))
     return lambda p: jc.scenes.engagement(
         chain,
         Z,

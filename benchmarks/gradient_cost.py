@@ -72,10 +72,14 @@ def spaces() -> dict[str, DesignSpace]:
     }
 
 
-def build(profile, n_entry: int = 3, settle: bool = True):
+def build(
+    profile, n_entry: int = 3, settle: bool = True, roller_contact=LAW, joint_friction=JOINTS
+):
+    """The study's engagement for ``profile`` (the design model's contact law and joint
+    friction unless given)."""
     return jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=n_entry, roller_contact=LAW,
-        joint_friction=JOINTS, settle=settle,
+        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=n_entry,
+        roller_contact=roller_contact, joint_friction=joint_friction, settle=settle,
     )  # fmt: skip
 
 
@@ -107,13 +111,15 @@ MEMBERS = 6
 EVERY_GAP_PERIODS = 4
 
 
-def build_turned(profile) -> list:
+def build_turned(profile, **model) -> list:
     """``MEMBERS`` engagements of ``profile``, each settled with the sprocket turned by
     z/MEMBERS more pitches (gap k centred at angle0 + 2πk/z), ``EVERY_GAP_PERIODS`` + 1
     entry rollers: over periods 2 to EVERY_GAP_PERIODS member j meshes z/MEMBERS gaps
     of its own, and the members together mesh every gap once. For a uniform tooth the
-    members are the same solve turned by whole pitches (equal values)."""
-    base = build(profile, n_entry=EVERY_GAP_PERIODS + 1, settle=False)
+    members are the same solve turned by whole pitches (equal values). ``model``:
+    :func:`build`'s ``roller_contact`` and ``joint_friction`` (default: the design
+    model's)."""
+    base = build(profile, n_entry=EVERY_GAP_PERIODS + 1, settle=False, **model)
     a0 = base.sprockets[0].angle0
     turn = 2 * math.pi / Z * (Z // MEMBERS)
     return [

@@ -91,6 +91,24 @@ def profile(design: str):
     return jc.FreeformProfile.from_iso(iso["min"], 2, tip_diameter=tip, **changes)
 
 
+def drive_scene(driver, rpm: float, **model):
+    """The study's settled drive with ``driver`` as the z = 18 driver's profile at ``rpm``
+    (``model``: ``jc.scenes.drive``'s ``roller_contact``, ``joint_friction``, ...)."""
+    import jaxchain as jc
+
+    chain = jc.ChainSpec.iso606(CHAIN)
+    return jc.scenes.drive(
+        chain,
+        teeth=(Z, Z_DRIVEN),
+        n_links=N_LINKS,
+        speed_rpm=rpm,
+        load_torque=LOAD,
+        pretension=PRETENSION,
+        profiles=[driver, jc.ToothProfile.iso606(chain, Z_DRIVEN, "min")],
+        **model,
+    )
+
+
 def solve(design: str, rpm: float, revs: float) -> dict:
     """One solve of the drive with ``design`` at ``rpm`` over ``revs`` driver revolutions:
     the signals' order lines, the peak force, the solver's statistics and its wall time."""
@@ -100,17 +118,8 @@ def solve(design: str, rpm: float, revs: float) -> dict:
     import jaxchain as jc
     from jaxchain.observers import OrderSpectrum
 
-    chain = jc.ChainSpec.iso606(CHAIN)
     t = time.perf_counter()
-    scene = jc.scenes.drive(
-        chain,
-        teeth=(Z, Z_DRIVEN),
-        n_links=N_LINKS,
-        speed_rpm=rpm,
-        load_torque=LOAD,
-        pretension=PRETENSION,
-        profiles=[profile(design), jc.ToothProfile.iso606(chain, Z_DRIVEN, "min")],
-    )
+    scene = drive_scene(profile(design), rpm)
     build_s = time.perf_counter() - t
     observers = tuple(
         OrderSpectrum(ORDERS, 0.25, revs - 0.05, signal=s, sprocket=k, reference=0)

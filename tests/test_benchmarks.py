@@ -224,3 +224,27 @@ def test_drive_gradient_quick(tmp_path):
     assert res["growth_per_period"]["drive"] == pytest.approx(expected, rel=1e-9)
     assert res["growth_per_period"]["engagement"] is None and res["band"] is None
     assert (tmp_path / "drive_gradient.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_pattern_remeasure_quick(tmp_path):
+    """The per-tooth designs' re-measurement, quick (the uniform start and Adam's pattern
+    from the committed every-gap result, rtol 1e-7): six members each, finite peaks under
+    both laws, the changes against the start computed from them, the chart written."""
+    from benchmarks.pattern_remeasure import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    rows = {r["design"]: r for r in res["rows"]}
+    assert set(rows) == {"start (uniform ISO mid)", "Adam"}
+    for r in rows.values():
+        for law in ("johnson", "hertz"):
+            assert r[law]["ok"] and len(r[law]["members_N"]) == 6
+            assert 100 < r[law]["peak_N"] == max(r[law]["members_N"]) < 20_000
+    start = rows["start (uniform ISO mid)"]
+    assert start["change_vs_start"] == {"johnson": 0.0, "hertz": 0.0}
+    # the uniform start's six turned members are one solve turned by whole pitches (equal
+    # to the adaptive solves' tolerance: measured 1.4e-6 of the peak at rtol 1e-7)
+    assert np.ptp(start["johnson"]["members_N"]) < 1e-5 * start["johnson"]["peak_N"]
+    adam = rows["Adam"]["change_vs_start"]["johnson"]
+    assert adam == pytest.approx(rows["Adam"]["johnson"]["peak_N"] / start["johnson"]["peak_N"] - 1)
+    assert (tmp_path / "pattern_remeasure.png").stat().st_size > 10_000
