@@ -79,7 +79,8 @@ TARGET_FRACTION = 0.9  # the common target: this fraction of the largest decreas
 FAILED = 1e6  # the value a gradient-free method sees for a failed solve [N]
 PROBE_STEPS = (1e-3, 1e-2, 0.1, 1.0)  # steps along the descent direction (largest |Δu|)
 SAMPLES = 8  # the soft peak's samples per step (0: integrated by the solver's stages)
-GRADIENT_METHODS = ("Adam", "L-BFGS")
+PERTURBED = "Adam, perturbed start"  # Adam from u0 + σ·N(0, 1) (--perturbed-adam)
+GRADIENT_METHODS = ("Adam", "L-BFGS", PERTURBED)
 
 
 def plan(quick: bool) -> dict:
@@ -174,7 +175,9 @@ class Tracker:
         }
 
 
-def adam(obj, u0, ratio: float, budget: float) -> tuple[dict, Tracker, np.ndarray]:
+def adam(
+    obj, u0, ratio: float, budget: float, method: str = "Adam"
+) -> tuple[dict, Tracker, np.ndarray]:
     import optax
 
     tr = Tracker(budget)
@@ -192,7 +195,7 @@ def adam(obj, u0, ratio: float, budget: float) -> tuple[dict, Tracker, np.ndarra
         updates, state = opt.update(grad, state)
         u = optax.apply_updates(u, updates)
     wall = time.perf_counter() - t
-    return tr.result("Adam", None, wall, learning_rate=LEARNING_RATE), tr, grad0
+    return tr.result(method, None, wall, learning_rate=LEARNING_RATE), tr, grad0
 
 
 def lbfgs(obj, u0, ratio: float, budget: float) -> dict:
@@ -384,7 +387,7 @@ def chart(results: dict, path) -> None:
     rows = results["rows"]
     fig, axes = plt.subplots(1, len(rows), figsize=(5 * len(rows), 4), squeeze=False)
     colors = {"Adam": "tab:red", "L-BFGS": "tab:purple", "CMA-ES": "tab:blue",
-              "Nelder-Mead": "tab:green"}  # fmt: skip
+              "Nelder-Mead": "tab:green", PERTURBED: "tab:orange"}  # fmt: skip
     for ax, row in zip(axes[0], rows, strict=True):
         labelled = set()
         for r in row["runs"]:
@@ -448,6 +451,33 @@ def extend_cma(out, name: str, budget: float, start: float) -> dict:
     return results
 
 
+def perturbed_adam(out, name: str, sigma: float, start: float, seed: int = 0) -> dict:
+    """Add to each row of ``out/name.json`` an Adam run from the start moved by
+    ``sigma``·N(0, 1) (seeded): on the every-gap objective the turned members make the
+    gradient at the uniform start equal for gaps k, k + 3, …, and Adam from there keeps
+    that symmetry; from a perturbed start it searches every direction. Re-analyses."""
+    results = json.loads((out / f"{name}.json").read_text())
+    spaces = gradient_cost.spaces()
+    for row in results["rows"]:
+        space = space_of(row["space"], spaces)
+        obj = objective_of(row["space"], space, *saved_steps(results["settings"]), throw=False)
+        u0 = sigma * np.random.default_rng(seed).normal(size=space.size)
+        run, _, _ = adam(obj, jnp.asarray(u0), row["ratio"], row["budget"], method=PERTURBED)
+        run.update(start_noise=sigma, noise_seed=seed, start_value_N=run["curve"][0][1])
+        row["runs"] = [r for r in row["runs"] if r["method"] != PERTURBED] + [run]
+        print(f"  {row['space']}: {PERTURBED} (σ = {sigma:g}): best {run['best_N']:.2f} N at "
+              f"{run['best_at_sims']:.0f} sims", flush=True)  # fmt: skip
+        analyse(row)
+    results["perturbed_adam"] = {
+        "command": f"python -m benchmarks.methods --name {name} --perturbed-adam {sigma:g}",
+        "date": datetime.date.today().isoformat(),
+        "seconds": time.perf_counter() - start,
+    }
+    (out / f"{name}.json").write_text(json.dumps(results, indent=1))
+    chart(results, out / f"{name}.png")
+    return results
+
+
 def main(argv=None) -> dict:
     ap = parser(__doc__)
     ap.add_argument(
@@ -460,6 +490,13 @@ def main(argv=None) -> dict:
         default=None,
         metavar="BUDGET",
         help="re-run the CMA-ES seeds of OUT/NAME.json with this budget of simulations",
+    )
+    ap.add_argument(
+        "--perturbed-adam",
+        type=float,
+        default=None,
+        metavar="SIGMA",
+        help="add to OUT/NAME.json an Adam run from the start moved by SIGMA·N(0, 1)",
     )
     ap.add_argument(
         "--dt",
@@ -500,6 +537,8 @@ def main(argv=None) -> dict:
         return results
     if args.extend_cma is not None:
         return extend_cma(args.out, args.name, args.extend_cma, start)
+    if args.perturbed_adam is not None:
+        return perturbed_adam(args.out, args.name, args.perturbed_adam, start)
     p = plan(args.quick)
     if args.dimensions:
         p["dimensions"] = tuple(d for d in args.dimensions.split(",") if d in p["budget"])
