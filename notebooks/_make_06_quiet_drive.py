@@ -243,7 +243,7 @@ print(f"band level: reverse-mode |grad| {band['grad_norm']:.2g} dB per unit u")"
     new_markdown_cell(
         """On the engagement strand the gradient stays the same size however long the solve; on
 the closed drive it grows by a factor of several hundred per tooth period, and past two
-periods it no longer converges as the step shrinks. The band level over 1.2 revolutions
+periods it does not converge as the step shrinks. The band level over 1.2 revolutions
 jumps by up to half a decibel when the seats move by less than a nanometre (right): a
 function that rough has no useful derivative, and a gradient-free search sees the scatter
 as noise. Per-tooth patterns are therefore designed on short solves (the engagement
