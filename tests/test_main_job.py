@@ -194,7 +194,7 @@ def test_fast_keeps_the_options_given():
     s, _ = parse(["--fast", "--periods", "3", "--iterations", "5", "--ensemble", "0.9,1.1"])
     assert (s.periods, s.iterations, s.ensemble, s.baseline_budget) == (3, 5, (0.9, 1.1), 4)
     s, _ = parse([])
-    assert (s.periods, s.iterations, s.ensemble) == (2, 15, (0.5, 1.0, 1.5))
+    assert (s.periods, s.iterations, s.ensemble) == (2, 10, (0.5, 1.0, 1.5))
 
 
 def test_an_optimizer_must_be_an_optax_optimizer():
@@ -222,7 +222,7 @@ def test_a_checkpoint_with_damaged_values_is_refused(tmp_path, u, match):
 
 def test_jaxchain_fast_is_read_as_the_notebooks_read_it(monkeypatch):
     monkeypatch.setenv("JAXCHAIN_FAST", "0")
-    assert parse([])[0].iterations == 15
+    assert parse([])[0].iterations == 10
     monkeypatch.setenv("JAXCHAIN_FAST", "1")
     assert parse([])[0].iterations == 3
 
