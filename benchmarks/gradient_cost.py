@@ -49,26 +49,28 @@ JOINTS = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
 DT = 4e-6  # the fixed step [s]
 
 
-def spaces() -> dict[str, DesignSpace]:
-    """The three design spaces (module docstring), named by their dimension."""
-    iso = jc.ToothProfile.iso606(CHAIN, Z, "mid")
+def per_gap_space(form: str = "mid", wide: bool = False) -> DesignSpace:
+    """A per-gap space around the uniform ISO 606 ``form`` (u = 0: that form, one arc per
+    flank): each gap's seating radius ±20 µm and clockwise seat angle ±0.04 rad (36
+    coordinates); ``wide`` adds each gap's counter-clockwise seat angle ±0.04 rad and seat
+    offset ±20 µm (72)."""
+    iso = jc.ToothProfile.iso606(CHAIN, Z, form)
     tooth = jc.FreeformProfile.from_iso(iso, 1)
     ri, a = float(iso.seating_radius), float(iso.seating_angle) / 2
     ones = np.ones(Z)
-    radius = (ri - 20e-6 * ones, ri + 20e-6 * ones)
     angle = ((a - 0.04) * ones, (a + 0.04) * ones)
+    leaves = {"seating_radius": (ri - 20e-6 * ones, ri + 20e-6 * ones), "cw.seat_angle": angle}
+    if wide:
+        leaves |= {"ccw.seat_angle": angle, "seat_offset": (-20e-6 * ones, 20e-6 * ones)}
+    return DesignSpace.select(tooth, leaves)
+
+
+def spaces() -> dict[str, DesignSpace]:
+    """The three design spaces (module docstring), named by their dimension."""
     return {
         "4": DesignSpace.iso606(CHAIN, Z),
-        "36": DesignSpace.select(tooth, {"seating_radius": radius, "cw.seat_angle": angle}),
-        "72": DesignSpace.select(
-            tooth,
-            {
-                "seating_radius": radius,
-                "cw.seat_angle": angle,
-                "ccw.seat_angle": angle,
-                "seat_offset": (-20e-6 * ones, 20e-6 * ones),
-            },
-        ),
+        "36": per_gap_space(),
+        "72": per_gap_space(wide=True),
     }
 
 

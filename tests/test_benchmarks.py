@@ -248,3 +248,23 @@ def test_pattern_remeasure_quick(tmp_path):
     adam = rows["Adam"]["change_vs_start"]["johnson"]
     assert adam == pytest.approx(rows["Adam"]["johnson"]["peak_N"] / start["johnson"]["peak_N"] - 1)
     assert (tmp_path / "pattern_remeasure.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_pattern_design_quick(tmp_path):
+    """The per-tooth design around the ISO minimum form, quick (2 Adam steps from the
+    perturbed start, re-measured at rtol 1e-7): the history, the three re-measured designs
+    with six members under both laws, the changes against the uniform form, the chart."""
+    from benchmarks.pattern_design import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    assert res["form"] == "min" and [h["step"] for h in res["history"]] == [0, 1]
+    assert res["start"]["objective_N"] == res["history"][0]["objective_N"]
+    for name in ("uniform", "start", "designed"):
+        for law in ("johnson", "hertz"):
+            r = res[name]["remeasured"][law]
+            assert r["ok"] and len(r["members_N"]) == 6 and r["peak_N"] == max(r["members_N"])
+    base = res["uniform"]["remeasured"]["johnson"]["peak_N"]
+    got = res["designed"]["remeasured"]["johnson"]["peak_N"]
+    assert res["change_vs_uniform"]["designed"]["johnson"] == pytest.approx(got / base - 1)
+    assert (tmp_path / "pattern_design_min.png").stat().st_size > 10_000
