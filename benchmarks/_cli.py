@@ -58,6 +58,17 @@ def finish(
     return results
 
 
+def save_chart(fig, results: dict, path: Path, rect=(0, 0, 1, 1)) -> None:
+    """Title ``fig`` with the study's command and date, lay it out inside ``rect`` (room
+    left for a figure legend), write it to ``path``, close it."""
+    import matplotlib.pyplot as plt
+
+    fig.suptitle(f"{results['command']} — {results['date']}", fontsize=8)
+    fig.tight_layout(rect=rect)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 #: The studies' scenes have frictionless chain joints (``joint_friction=None``): they
 #: measure the numerical methods (solvers, tolerances, contact regularization, costs) on
 #: the model their committed results were run with.

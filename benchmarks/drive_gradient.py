@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser
+from benchmarks._cli import finish, parse, parser, save_chart
 from benchmarks.quiet_drive import CHAIN, LOAD, N_LINKS, PRETENSION, Z_DRIVEN, Z, drive_scene
 from benchmarks.work_precision import machine_info
 
@@ -286,10 +286,7 @@ def chart(results: dict, path: Path) -> None:
         ax.set_title(f"Band level over {band['revolutions']} revolutions")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle(f"{results['command']} — {results['date']}", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_chart(fig, results, path)
 
 
 def main(argv=None) -> dict:

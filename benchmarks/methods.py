@@ -441,8 +441,13 @@ def extend_cma(out, name: str, budget: float, start: float) -> dict:
                   flush=True)  # fmt: skip
         row["cma_budget"] = budget
         analyse(row)
-    results["extend_cma"] = {
-        "command": f"python -m benchmarks.methods --name {name} --extend-cma {budget:g}",
+    return _amend(out, name, results, "extend_cma", f"--extend-cma {budget:g}", start)
+
+
+def _amend(out, name: str, results: dict, key: str, flags: str, start: float) -> dict:
+    """Record the amending command under ``key`` and rewrite ``out/name.json`` and its chart."""
+    results[key] = {
+        "command": f"python -m benchmarks.methods --name {name} {flags}",
         "date": datetime.date.today().isoformat(),
         "seconds": time.perf_counter() - start,
     }
@@ -468,14 +473,7 @@ def perturbed_adam(out, name: str, sigma: float, start: float, seed: int = 0) ->
         print(f"  {row['space']}: {PERTURBED} (σ = {sigma:g}): best {run['best_N']:.2f} N at "
               f"{run['best_at_sims']:.0f} sims", flush=True)  # fmt: skip
         analyse(row)
-    results["perturbed_adam"] = {
-        "command": f"python -m benchmarks.methods --name {name} --perturbed-adam {sigma:g}",
-        "date": datetime.date.today().isoformat(),
-        "seconds": time.perf_counter() - start,
-    }
-    (out / f"{name}.json").write_text(json.dumps(results, indent=1))
-    chart(results, out / f"{name}.png")
-    return results
+    return _amend(out, name, results, "perturbed_adam", f"--perturbed-adam {sigma:g}", start)
 
 
 def main(argv=None) -> dict:

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser
+from benchmarks._cli import finish, parse, parser, save_chart
 from benchmarks.work_precision import machine_info
 
 LEARNING_RATE = 1.0
@@ -56,10 +56,7 @@ def chart(results: dict, path: Path) -> None:
     axes[1].set_xticks(np.arange(3), ["uniform ISO " + results["form"], "Adam's start", "designed"])
     axes[1].set_ylabel("re-measured worst-gap peak [N]")
     axes[1].legend()
-    fig.suptitle(f"{results['command']} — {results['date']}", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_chart(fig, results, path)
 
 
 def main(argv=None) -> dict:

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, shown
+from benchmarks._cli import finish, parse, parser, save_chart, shown
 from benchmarks.work_precision import machine_info
 
 RESULT = Path(__file__).parent / "results" / "methods_every_gap.json"
@@ -155,10 +155,7 @@ def chart(results: dict, path: Path) -> None:
         ax.grid(True, alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(rows), fontsize=8)
-    fig.suptitle(f"{results['command']} — {results['date']}", fontsize=8)
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_chart(fig, results, path, rect=(0, 0.07, 1, 1))
 
 
 if __name__ == "__main__":
