@@ -72,8 +72,7 @@ def main(argv=None) -> dict:
     import optax
 
     from benchmarks import gradient_cost as gc
-    from benchmarks.pattern_remeasure import measure
-    from optimize.problem import second_law
+    from benchmarks.pattern_remeasure import laws, measure
 
     start = time.perf_counter()
     steps = 2 if args.quick else args.steps
@@ -97,12 +96,11 @@ def main(argv=None) -> dict:
         updates, state = opt.update(grad, state)
         u = optax.apply_updates(u, updates)
     best = min(history, key=lambda h: h["objective_N"])
-    laws = {"johnson": None, "hertz": second_law(gc.CHAIN)}
+    models = laws()
 
     def remeasured(coords):
-        return {
-            law: measure(space.profile(jnp.asarray(coords)), c, rtol) for law, c in laws.items()
-        }
+        profile = space.profile(jnp.asarray(coords))
+        return {law: measure(profile, c, rtol) for law, c in models.items()}
 
     uniform_value = float(obj.value(jnp.zeros(space.size))[0])
     results = {
@@ -123,7 +121,7 @@ def main(argv=None) -> dict:
     base = results["uniform"]["remeasured"]
     results["change_vs_uniform"] = {
         name: {law: results[name]["remeasured"][law]["peak_N"] / base[law]["peak_N"] - 1
-               for law in laws}
+               for law in models}
         for name in ("start", "designed")
     }  # fmt: skip
     for name in ("uniform", "start", "designed"):

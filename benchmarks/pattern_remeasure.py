@@ -37,6 +37,19 @@ from benchmarks.work_precision import machine_info
 RESULT = Path(__file__).parent / "results" / "methods_every_gap.json"
 
 
+def run_name(run: dict) -> str:
+    """A methods run's name: its method, and its seed where it has one."""
+    return run["method"] + (f" seed {run['seed']}" if run.get("seed") is not None else "")
+
+
+def laws() -> dict:
+    """The re-measurement's roller laws: the nominal (Johnson, None) and the second law."""
+    from benchmarks import gradient_cost as gc
+    from optimize.problem import second_law
+
+    return {"johnson": None, "hertz": second_law(gc.CHAIN)}
+
+
 def designs(result: dict, size: int, quick: bool) -> dict[str, np.ndarray | None]:
     """The coordinates re-measured: the start (u = 0), each method's best pattern (Adam
     only with ``quick``); ``None`` stands for the uniform ISO minimum form."""
@@ -45,8 +58,7 @@ def designs(result: dict, size: int, quick: bool) -> dict[str, np.ndarray | None
     for run in row["runs"]:
         if quick and run["method"] != "Adam":
             continue
-        name = run["method"] + (f" seed {run['seed']}" if run.get("seed") is not None else "")
-        out[name] = np.asarray(run["best_u"])
+        out[run_name(run)] = np.asarray(run["best_u"])
     if not quick:
         out["uniform ISO min form"] = None
     return out
@@ -55,6 +67,8 @@ def designs(result: dict, size: int, quick: bool) -> dict[str, np.ndarray | None
 def measure(profile, law, rtol: float) -> dict:
     """The six turned members of ``profile`` with the nominal model (``law``: None for
     the nominal Johnson law) solved tightly; each member's sharp peak over periods 2–4."""
+    import diffrax
+
     import jaxchain as jc
     from benchmarks import gradient_cost as gc
 
@@ -63,8 +77,6 @@ def measure(profile, law, rtol: float) -> dict:
     ts = np.linspace(t0, t1, math.ceil((t1 - t0) / 0.5e-6) + 1)
     peaks, steps, ok = [], [], []
     for scene in scenes:
-        import diffrax
-
         sol = jc.simulate(
             scene, t1, solver=diffrax.Dopri8(), rtol=rtol, atol=rtol * 1e-3, ts=ts,
             max_steps=1_000_000, throw=False,
@@ -72,7 +84,8 @@ def measure(profile, law, rtol: float) -> dict:
         ok.append(bool(sol.ok))
         peaks.append(float(np.max(np.asarray(sol.roller_sprocket_force))) if sol.ok else math.nan)
         steps.append(int(sol.stats["num_accepted_steps"]))
-    return {"peak_N": max(peaks), "members_N": peaks, "steps": steps, "ok": all(ok)}
+    # a failed member makes the worst NaN (never the largest of the others)
+    return {"peak_N": float(np.max(peaks)), "members_N": peaks, "steps": steps, "ok": all(ok)}
 
 
 def main(argv=None) -> dict:
@@ -86,7 +99,6 @@ def main(argv=None) -> dict:
     import jaxchain as jc
     from benchmarks import gradient_cost as gc
     from benchmarks.methods import space_of
-    from optimize.problem import second_law
 
     result = json.loads(args.result.read_text())
     row = result["rows"][0]
@@ -95,10 +107,9 @@ def main(argv=None) -> dict:
     rtol = args.rtol or (1e-7 if args.quick else 1e-9)
     start = time.perf_counter()
     space = space_of(row["space"], gc.spaces())
-    laws = {"johnson": None, "hertz": second_law(gc.CHAIN)}
+    models = laws()
     iso_min = jc.ToothProfile.iso606(gc.CHAIN, gc.Z, "min")
-    objective = {r["method"] + (f" seed {r['seed']}" if r.get("seed") is not None else ""):
-                 r["best_N"] for r in row["runs"]}  # fmt: skip
+    objective = {run_name(r): r["best_N"] for r in row["runs"]}
     rows = []
     for name, u in designs(result, space.size, args.quick).items():
         profile = iso_min if u is None else space.profile(u)
@@ -108,7 +119,7 @@ def main(argv=None) -> dict:
             "u": None if u is None else u.tolist(),
             "objective_N": design_value,
         }
-        for law, contact in laws.items():
+        for law, contact in models.items():
             t = time.perf_counter()
             entry[law] = measure(profile, contact, rtol)
             entry[law]["seconds"] = time.perf_counter() - t
@@ -120,7 +131,7 @@ def main(argv=None) -> dict:
         )
     base = rows[0]
     for r in rows:
-        r["change_vs_start"] = {law: r[law]["peak_N"] / base[law]["peak_N"] - 1 for law in laws}
+        r["change_vs_start"] = {law: r[law]["peak_N"] / base[law]["peak_N"] - 1 for law in models}
     given = sys.argv[1:] if argv is None else argv
     results = {
         "command": " ".join(["python -m benchmarks.pattern_remeasure", *given]),
