@@ -1,7 +1,7 @@
 """A per-tooth pattern around a uniform ISO 606 form, designed by gradient on every gap and
 re-measured.
 
-    python -m benchmarks.pattern_design               # around the minimum form (~12 min)
+    python -m benchmarks.pattern_design               # around the minimum form (~4 min)
     python -m benchmarks.pattern_design --form mid    # around the mid form
     python -m benchmarks.pattern_design --quick       # 2 Adam steps, looser re-measurement
 
@@ -30,8 +30,6 @@ import numpy as np
 
 from benchmarks._cli import finish, parse, parser, save_chart
 from benchmarks.work_precision import machine_info
-
-LEARNING_RATE = 1.0
 
 
 def chart(results: dict, path: Path) -> None:
@@ -72,6 +70,7 @@ def main(argv=None) -> dict:
     import optax
 
     from benchmarks import gradient_cost as gc
+    from benchmarks.methods import LEARNING_RATE
     from benchmarks.pattern_remeasure import laws, measure
 
     start = time.perf_counter()
