@@ -149,8 +149,8 @@ objective it was found with."""
         scene,
         2 * period,
         solver=diffrax.Dopri8(),
-        rtol=1e-7 if FAST else 1e-9,
-        atol=1e-10 if FAST else 1e-12,
+        rtol=1e-6 if FAST else 1e-9,
+        atol=1e-9 if FAST else 1e-12,
         ts=np.linspace(period, 2 * period, math.ceil(period / 0.5e-6) + 1),  # every ≤ 0.5 µs
         max_steps=1_000_000,
     )

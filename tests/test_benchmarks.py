@@ -1,6 +1,7 @@
 """The benchmark scripts run end to end (slow: `python -m pytest -m slow`)."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -251,15 +252,26 @@ def test_pattern_remeasure_quick(tmp_path):
 
 
 @pytest.mark.slow
-def test_pattern_design_quick(tmp_path):
+@pytest.mark.parametrize("robust", [False, True])
+def test_pattern_design_quick(tmp_path, robust):
     """The per-tooth design around the ISO minimum form, quick (2 Adam steps from the
     perturbed start, re-measured at rtol 1e-7): the history, the three re-measured designs
-    with six members under both laws, the changes against the uniform form, the chart."""
+    with six members under both laws, the changes against the uniform form, the chart;
+    robust: both design laws' values in every step, the uniform form's objective 1."""
     from benchmarks.pattern_design import main
 
-    res = main(["--quick", "--out", str(tmp_path)])
+    res = main(["--quick", "--out", str(tmp_path), *(["--robust"] if robust else [])])
     assert res["form"] == "min" and [h["step"] for h in res["history"]] == [0, 1]
-    assert res["start"]["objective_N"] == res["history"][0]["objective_N"]
+    assert res["start"]["objective"] == res["history"][0]["objective"]
+    if robust:
+        assert res["uniform"]["objective"] == pytest.approx(1.0, abs=1e-12)
+        for h in res["history"]:
+            assert len(h["johnson_members_N"]) == len(h["hertz_members_N"]) == 6
+            relative = [h[f"{law}_N"] / res["uniform"][f"{law}_N"] for law in ("johnson", "hertz")]
+            # the soft maximum lies between the larger and the larger − τ·log 2
+            assert max(relative) - 0.01 * math.log(2) - 1e-12 <= h["objective"] <= max(relative)
+    else:
+        assert len(res["history"][0]["members_N"]) == 6
     for name in ("uniform", "start", "designed"):
         for law in ("johnson", "hertz"):
             r = res[name]["remeasured"][law]
@@ -267,4 +279,5 @@ def test_pattern_design_quick(tmp_path):
     base = res["uniform"]["remeasured"]["johnson"]["peak_N"]
     got = res["designed"]["remeasured"]["johnson"]["peak_N"]
     assert res["change_vs_uniform"]["designed"]["johnson"] == pytest.approx(got / base - 1)
-    assert (tmp_path / "pattern_design_min.png").stat().st_size > 10_000
+    name = "pattern_design_min" + ("_robust" if robust else "")
+    assert (tmp_path / f"{name}.png").stat().st_size > 10_000
