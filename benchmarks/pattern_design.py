@@ -4,9 +4,11 @@ re-measured.
     python -m benchmarks.pattern_design               # around the minimum form (~4 min)
     python -m benchmarks.pattern_design --form mid    # around the mid form
     python -m benchmarks.pattern_design --robust      # against both contact laws (~8 min)
+    python -m benchmarks.pattern_design --robust --width 1 --dt 2   # a finer design model
     python -m benchmarks.pattern_design --quick       # 2 Adam steps, looser re-measurement
 
-Writes ``benchmarks/results/pattern_design_<form>[_robust].json`` and ``.png``.
+Writes ``benchmarks/results/pattern_design_<form>[_robust][_w<width>_dt<dt>].json`` and
+``.png`` (the suffix where the design model differs from its 3 µm onset and 4 µs step).
 
 Design space: each gap's seating radius ±20 µm and clockwise seat angle ±0.04 rad around
 the uniform ISO 606 ``--form`` (a free-form tooth with one arc per flank, 36 coordinates).
@@ -42,12 +44,62 @@ from benchmarks.work_precision import machine_info
 LAW_TEMPERATURE = 0.01
 
 
-def plain_objective(space):
-    """``u -> (value [N], gradient, parts)``: the every-gap objective (design model);
-    ``parts``: the six members' values."""
+def hertz_design_law(width: float | None = None):
+    """The second law (Hertz, ``optimize.problem.second_law``) as a design law: its contact
+    onset regularized over ``width`` [m] (default the Johnson design law's 3 µm)."""
+    import equinox as eqx
+
+    from benchmarks import gradient_cost as gc
+    from optimize.problem import second_law
+
+    width = gc.LAW.width if width is None else width
+    return eqx.tree_at(lambda law: law.width, second_law(gc.CHAIN), width)
+
+
+def design_objectives(
+    space,
+    width: float = 3e-6,
+    dt: float = 4e-6,
+    hertz_temperature: float = 20.0,
+    member_temperature: float | None = None,
+) -> dict:
+    """The every-gap objective over ``space`` under each design law ("johnson", "hertz"),
+    the contact onset regularized over ``width`` [m], fixed steps of ``dt`` [s]; the soft
+    peak's temperature 20 N (Johnson) and ``hertz_temperature`` [N]; the members' soft
+    maximum's ``member_temperature`` [N] (default: the soft peak's)."""
+    import jaxchain as jc
     from benchmarks import gradient_cost as gc
 
-    obj = gc.every_gap_objective(space, samples=8)
+    laws = {
+        "johnson": jc.scenes.roller_law(gc.CHAIN, 0.7, width=width),
+        "hertz": hertz_design_law(width),
+    }
+    temperature = {"johnson": 20.0, "hertz": hertz_temperature}
+    return {
+        law: gc.every_gap_objective(
+            space,
+            dt=dt,
+            samples=8,
+            model={"roller_contact": c},
+            temperature=temperature[law],
+            member_temperature=member_temperature,
+        )
+        for law, c in laws.items()
+    }
+
+
+def suffix(args) -> str:
+    """A result file's name suffix for a design model other than the default."""
+    out = f"_w{args.width:g}_dt{args.dt:g}" if (args.width, args.dt) != (3.0, 4.0) else ""
+    out += f"_tH{args.hertz_temperature:g}" if args.hertz_temperature != 20.0 else ""
+    member = getattr(args, "member_temperature", None)
+    return out + (f"_tM{member:g}" if member is not None else "")
+
+
+def plain_objective(space, **model):
+    """``u -> (value [N], gradient, parts)``: the every-gap objective (Johnson design law;
+    ``model``: :func:`design_objectives`'s); ``parts``: the six members' values."""
+    obj = design_objectives(space, **model)["johnson"]
 
     def design(u):
         value, grad, members = obj.value_and_grad(u)
@@ -56,21 +108,12 @@ def plain_objective(space):
     return design
 
 
-def robust_objective(space):
+def robust_objective(space, **model):
     """``u -> (value, gradient, parts)``: the soft maximum over the Johnson design law and
     the regularized second law of the every-gap objective relative to its value for the
     uniform form (u = 0; the first call fixes the scales); ``parts``: each law's
-    objective [N] and members."""
-    import equinox as eqx
-
-    from benchmarks import gradient_cost as gc
-    from optimize.problem import second_law
-
-    hertz = eqx.tree_at(lambda law: law.width, second_law(gc.CHAIN), 3e-6)
-    objs = {
-        "johnson": gc.every_gap_objective(space, samples=8),
-        "hertz": gc.every_gap_objective(space, samples=8, model={"roller_contact": hertz}),
-    }
+    objective [N] and members. ``model``: :func:`design_objectives`'s."""
+    objs = design_objectives(space, **model)
     scale = {}
 
     def design(u):
@@ -122,6 +165,16 @@ def main(argv=None) -> dict:
     ap.add_argument("--steps", type=int, default=12, help="Adam steps (default %(default)s)")
     ap.add_argument("--sigma", type=float, default=0.1, help="start noise (default %(default)s)")
     ap.add_argument("--robust", action="store_true", help="design against both contact laws")
+    ap.add_argument("--width", type=float, default=3.0, help="onset [µm] (default %(default)s)")
+    ap.add_argument("--dt", type=float, default=4.0, help="fixed step [µs] (default %(default)s)")
+    ap.add_argument(
+        "--hertz-temperature", type=float, default=20.0,
+        help="the Hertz design objective's soft-peak temperature [N] (default %(default)s)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--member-temperature", type=float, default=None,
+        help="the members' soft maximum's temperature [N] (default: the soft peak's)",
+    )  # fmt: skip
     args = parse(ap, argv)
     import jax
 
@@ -138,7 +191,12 @@ def main(argv=None) -> dict:
     rtol = 1e-7 if args.quick else 1e-9
     space = gc.per_gap_space(args.form)
     unit = "× uniform form" if args.robust else "N"
-    design = robust_objective(space) if args.robust else plain_objective(space)
+    model = {
+        "width": 1e-6 * args.width, "dt": 1e-6 * args.dt,
+        "hertz_temperature": args.hertz_temperature,
+        "member_temperature": args.member_temperature,
+    }  # fmt: skip
+    design = (robust_objective if args.robust else plain_objective)(space, **model)
     uniform = design(jnp.zeros(space.size))
     u = jnp.asarray(args.sigma * np.random.default_rng(0).normal(size=space.size))
     u_start = u
@@ -169,6 +227,9 @@ def main(argv=None) -> dict:
         "machine": machine_info(),
         "form": args.form,
         "robust": args.robust,
+        "design_model": {"onset_width_m": model["width"], "dt_s": model["dt"],
+                         "hertz_temperature_N": args.hertz_temperature,
+                         "member_temperature_N": args.member_temperature},
         "objective_unit": unit,
         "space": "36 per-gap coordinates: seating radius ±20 µm, cw seat angle ±0.04 rad",
         "sigma": args.sigma,
@@ -193,6 +254,7 @@ def main(argv=None) -> dict:
             f"{r['johnson']['peak_N']:.1f} N (Johnson), {r['hertz']['peak_N']:.1f} N (Hertz)"
         )
     name = f"pattern_design_{args.form}" + ("_robust" if args.robust else "")
+    name += suffix(args)
     return finish(results, args.out, name, chart, start)
 
 

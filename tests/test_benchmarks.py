@@ -281,3 +281,23 @@ def test_pattern_design_quick(tmp_path, robust):
     assert res["change_vs_uniform"]["designed"]["johnson"] == pytest.approx(got / base - 1)
     name = "pattern_design_min" + ("_robust" if robust else "")
     assert (tmp_path / f"{name}.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_design_fidelity_quick(tmp_path):
+    """Two random per-tooth patterns, each member's change under the design model and
+    re-measured under the nominal one, both laws; the agreement figures and the chart."""
+    from benchmarks.design_fidelity import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    assert len(res["patterns"]) == 2
+    for p in res["patterns"]:
+        for law in ("johnson", "hertz"):
+            e = p[law]
+            assert e["nominal"]["ok"] and len(e["design_change"]) == len(e["nominal_change"]) == 6
+            base = res["uniform"][law]["nominal"]["peak_N"]
+            assert e["nominal_worst_change"] == pytest.approx(e["nominal"]["peak_N"] / base - 1)
+    for law in ("johnson", "hertz"):
+        a = res["agreement"][law]["members"]
+        assert a["points"] == 12 and -1 <= a["correlation"] <= 1
+    assert (tmp_path / "design_fidelity.png").stat().st_size > 10_000
