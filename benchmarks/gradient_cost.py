@@ -137,25 +137,25 @@ def every_gap_objective(
     samples: int = 0,
     model: dict | None = None,
     temperature: float = 20.0,
+    combine: str = "mean",
     member_temperature: float | None = None,
     **kwargs,
 ) -> ProfileObjective:
-    """The study's objective over every gap: the soft maximum over periods 2 to
-    ``EVERY_GAP_PERIODS`` of :func:`build_turned`'s members (one window, the members'
-    values combined by a soft maximum). A per-gap coordinate then moves the objective
-    whichever gap it shapes; in :func:`objective`'s single two-period solve only the gaps
-    holding the wrapped rollers and the one that meshes do. ``model``:
-    :func:`build_turned`'s (default the design model); ``temperature`` [N]: the soft
-    peak's (default 20 N), and the members' soft maximum's unless ``member_temperature``
-    is given."""
+    """The study's objective over every gap: each of :func:`build_turned`'s members'
+    soft peak over periods 2 to ``EVERY_GAP_PERIODS`` (one window), averaged over the
+    members (``combine="max"``: their soft maximum, temperature ``member_temperature``,
+    default ``temperature``). A per-gap coordinate then moves the objective whichever gap
+    it shapes; in :func:`objective`'s single two-period solve only the gaps holding the
+    wrapped rollers and the one that meshes do. ``model``: :func:`build_turned`'s
+    (default the design model); ``temperature`` [N]: the soft peak's (default 20 N)."""
     if Z % MEMBERS:
         raise ValueError(f"MEMBERS ({MEMBERS}) must divide the teeth ({Z})")
     model = model or {}
     return ProfileObjective(
         space, lambda p: build_turned(p, **model), t1=EVERY_GAP_PERIODS * PERIOD,
         t_start=PERIOD, temperature=temperature, reference=1500.0,
-        member_temperature=member_temperature or temperature, dt=dt, samples=samples,
-        **kwargs,
+        member_temperature=member_temperature or temperature, combine=combine, dt=dt,
+        samples=samples, **kwargs,
     )  # fmt: skip
 
 
