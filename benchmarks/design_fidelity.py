@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks._cli import finish, parse, parser, save_chart
+from benchmarks.pattern_design import add_model_options
 from benchmarks.work_precision import machine_info
 
 LAWS = ("johnson", "hertz")
@@ -97,12 +98,7 @@ def main(argv=None) -> dict:
         "--sigmas", type=float, nargs="+", default=[1.0, 3.0], help="default %(default)s"
     )
     ap.add_argument("--patterns", type=int, default=6, help="per σ (default %(default)s)")
-    ap.add_argument("--width", type=float, default=3.0, help="onset [µm] (default %(default)s)")
-    ap.add_argument("--dt", type=float, default=4.0, help="fixed step [µs] (default %(default)s)")
-    ap.add_argument(
-        "--hertz-temperature", type=float, default=20.0,
-        help="the Hertz design objective's soft-peak temperature [N] (default %(default)s)",
-    )  # fmt: skip
+    add_model_options(ap)
     args = parse(ap, argv)
     import jax
 
@@ -110,15 +106,15 @@ def main(argv=None) -> dict:
     import jax.numpy as jnp
 
     from benchmarks import gradient_cost as gc
-    from benchmarks.pattern_design import design_objectives, suffix
+    from benchmarks.pattern_design import design_objectives, model_options, suffix
     from benchmarks.pattern_remeasure import laws, measure
 
     start = time.perf_counter()
     sigmas, count = ([1.0], 2) if args.quick else (args.sigmas, args.patterns)
     rtol = 1e-7 if args.quick else 1e-9
     space = gc.per_gap_space("min")
-    width, dt = 1e-6 * args.width, 1e-6 * args.dt
-    design = design_objectives(space, width, dt, args.hertz_temperature)
+    model = model_options(args)
+    design = design_objectives(space, **model)
     nominal = laws()
 
     def evaluate(u):
@@ -183,7 +179,7 @@ def main(argv=None) -> dict:
         "machine": machine_info(),
         "space": "36 per-gap coordinates around the ISO 606 minimum form: seating radius "
         "±20 µm, cw seat angle ±0.04 rad",
-        "design_model": {"onset_width_m": width, "dt_s": dt,
+        "design_model": {"onset_width_m": model["width"], "dt_s": model["dt"],
                          "hertz_temperature_N": args.hertz_temperature},
         "rtol": rtol,
         "uniform": base,

@@ -4,11 +4,15 @@ re-measured.
     python -m benchmarks.pattern_design               # around the minimum form (~4 min)
     python -m benchmarks.pattern_design --form mid    # around the mid form
     python -m benchmarks.pattern_design --robust      # against both contact laws (~8 min)
-    python -m benchmarks.pattern_design --robust --width 1 --dt 2   # a finer design model
+    python -m benchmarks.pattern_design --robust --hertz-temperature 5 --member-max 5 \
+        --lr 0.2 --steps 16                           # the worst gap under both laws
     python -m benchmarks.pattern_design --quick       # 2 Adam steps, looser re-measurement
 
-Writes ``benchmarks/results/pattern_design_<form>[_robust][_w<width>_dt<dt>].json`` and
-``.png`` (the suffix where the design model differs from its 3 µm onset and 4 µs step).
+Writes ``benchmarks/results/pattern_design_<form>[_robust][...].json`` and ``.png``, a
+suffix naming each design-model or Adam option that differs from its default
+(``--width``/``--dt``: the contact onset [µm] and step [µs], 3 and 4;
+``--hertz-temperature``: the Hertz design objective's soft peak [N], 20; ``--member-max``:
+the members' soft maximum at that temperature [N] instead of their mean; ``--lr``).
 
 Design space: each gap's seating radius ±20 µm and clockwise seat angle ±0.04 rad around
 the uniform ISO 606 ``--form`` (a free-form tooth with one arc per flank, 36 coordinates).
@@ -89,12 +93,31 @@ def design_objectives(
     }
 
 
+def add_model_options(ap) -> None:
+    """The design model's options (onset, step, Hertz soft-peak temperature) on ``ap``."""
+    ap.add_argument("--width", type=float, default=3.0, help="onset [µm] (default %(default)s)")
+    ap.add_argument("--dt", type=float, default=4.0, help="fixed step [µs] (default %(default)s)")
+    ap.add_argument(
+        "--hertz-temperature", type=float, default=20.0,
+        help="the Hertz design objective's soft-peak temperature [N] (default %(default)s)",
+    )  # fmt: skip
+
+
+def model_options(args) -> dict:
+    """:func:`design_objectives`'s keywords from :func:`add_model_options`' options."""
+    return {
+        "width": 1e-6 * args.width, "dt": 1e-6 * args.dt,
+        "hertz_temperature": args.hertz_temperature,
+    }  # fmt: skip
+
+
 def suffix(args) -> str:
     """A result file's name suffix for a design model other than the default."""
     out = f"_w{args.width:g}_dt{args.dt:g}" if (args.width, args.dt) != (3.0, 4.0) else ""
     out += f"_tH{args.hertz_temperature:g}" if args.hertz_temperature != 20.0 else ""
-    member = getattr(args, "member_max", None)
-    return out + (f"_max{member:g}" if member is not None else "")
+    member, lr = getattr(args, "member_max", None), getattr(args, "lr", None)
+    out += f"_max{member:g}" if member is not None else ""
+    return out + (f"_lr{lr:g}" if lr is not None else "")
 
 
 def plain_objective(space, **model):
@@ -165,13 +188,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--form", choices=("min", "mid", "max"), default="min")
     ap.add_argument("--steps", type=int, default=12, help="Adam steps (default %(default)s)")
     ap.add_argument("--sigma", type=float, default=0.1, help="start noise (default %(default)s)")
+    ap.add_argument("--lr", type=float, default=None, help="Adam's learning rate (default 1)")
     ap.add_argument("--robust", action="store_true", help="design against both contact laws")
-    ap.add_argument("--width", type=float, default=3.0, help="onset [µm] (default %(default)s)")
-    ap.add_argument("--dt", type=float, default=4.0, help="fixed step [µs] (default %(default)s)")
-    ap.add_argument(
-        "--hertz-temperature", type=float, default=20.0,
-        help="the Hertz design objective's soft-peak temperature [N] (default %(default)s)",
-    )  # fmt: skip
+    add_model_options(ap)
     ap.add_argument(
         "--member-max", type=float, default=None, metavar="TEMPERATURE",
         help="the members' soft maximum at this temperature [N] (default: their mean)",
@@ -192,16 +211,13 @@ def main(argv=None) -> dict:
     rtol = 1e-7 if args.quick else 1e-9
     space = gc.per_gap_space(args.form)
     unit = "× uniform form" if args.robust else "N"
-    model = {
-        "width": 1e-6 * args.width, "dt": 1e-6 * args.dt,
-        "hertz_temperature": args.hertz_temperature,
-        "member_max": args.member_max,
-    }  # fmt: skip
+    model = model_options(args) | {"member_max": args.member_max}
     design = (robust_objective if args.robust else plain_objective)(space, **model)
     uniform = design(jnp.zeros(space.size))
     u = jnp.asarray(args.sigma * np.random.default_rng(0).normal(size=space.size))
     u_start = u
-    opt = optax.adam(LEARNING_RATE)
+    lr = LEARNING_RATE if args.lr is None else args.lr
+    opt = optax.adam(lr)
     state = opt.init(u)
     history = []
     for k in range(steps):
@@ -234,6 +250,7 @@ def main(argv=None) -> dict:
         "objective_unit": unit,
         "space": "36 per-gap coordinates: seating radius ±20 µm, cw seat angle ±0.04 rad",
         "sigma": args.sigma,
+        "learning_rate": lr,
         "rtol": rtol,
         "history": history,
         "uniform": {"objective": uniform[0], **uniform[2],
