@@ -48,13 +48,17 @@ LAWS = ("johnson", "hertz")
 
 def agreement(design: np.ndarray, nominal: np.ndarray) -> dict:
     """How well the changes ``design`` predict ``nominal`` (1-D arrays of fractions)."""
-    r = float(np.corrcoef(design, nominal)[0, 1]) if len(design) > 2 else float("nan")
-    slope = float(np.polyfit(design, nominal, 1)[0]) if len(design) > 2 else float("nan")
+    fit = len(design) > 2
+    line = np.polyfit(design, nominal, 1) if fit else np.full(2, np.nan)
+    gains = design < 0
     return {
         "points": len(design),
-        "correlation": r,
-        "slope": slope,
+        "correlation": float(np.corrcoef(design, nominal)[0, 1]) if fit else float("nan"),
+        "slope": float(line[0]),
+        "residual": float(np.std(nominal - np.polyval(line, design))),  # about the line
         "sign_agreement": float(np.mean(np.sign(design) == np.sign(nominal))),
+        "design_gains": int(np.sum(gains)),  # members the design model sees improve
+        "confirmed_gains": int(np.sum(gains & (nominal < 0))),  # ... and the nominal model
         "design_spread": float(np.std(design)),
         "nominal_spread": float(np.std(nominal)),
     }

@@ -112,7 +112,8 @@ def model_options(args) -> dict:
 
 
 def suffix(args) -> str:
-    """A result file's name suffix for a design model other than the default."""
+    """A result file's name suffix naming each design-model or Adam option that differs
+    from its default."""
     out = f"_w{args.width:g}_dt{args.dt:g}" if (args.width, args.dt) != (3.0, 4.0) else ""
     out += f"_tH{args.hertz_temperature:g}" if args.hertz_temperature != 20.0 else ""
     member, lr = getattr(args, "member_max", None), getattr(args, "lr", None)
@@ -150,10 +151,10 @@ def robust_objective(space, **model):
             values.append(float(value) / scale[law])
             grads.append(grad / scale[law])
         r = np.asarray(values) / LAW_TEMPERATURE
-        w = np.exp(r - r.max())
-        w /= w.sum()
-        value = LAW_TEMPERATURE * (r.max() + np.log(np.mean(np.exp(r - r.max()))))
-        return float(value), sum(float(wk) * g for wk, g in zip(w, grads, strict=True)), parts
+        e = np.exp(r - r.max())  # log-mean-exp and its weights (softmax)
+        value = LAW_TEMPERATURE * (r.max() + np.log(np.mean(e)))
+        grad = sum(float(w) * g for w, g in zip(e / e.sum(), grads, strict=True))
+        return float(value), grad, parts
 
     return design
 
