@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -41,6 +43,19 @@ def shown(path: Path) -> str:
         return str(path.resolve().relative_to(Path(__file__).resolve().parents[1]))
     except ValueError:
         return str(path)
+
+
+def header(study: str, argv=None) -> dict:
+    """A result file's opening: the command that reproduces it (``argv``: the study's
+    arguments, default the command line's), the date, and the machine (at the start)."""
+    from benchmarks.work_precision import machine_info  # (work_precision imports this module)
+
+    given = sys.argv[1:] if argv is None else argv
+    return {
+        "command": " ".join([f"python -m benchmarks.{study}", *given]),
+        "date": datetime.date.today().isoformat(),
+        "machine": machine_info(),
+    }
 
 
 def finish(

@@ -32,16 +32,13 @@ however good its gradients.
 
 from __future__ import annotations
 
-import datetime
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, save_chart
+from benchmarks._cli import finish, header, parse, parser, save_chart
 from benchmarks.pattern_design import add_model_options
-from benchmarks.work_precision import machine_info
 
 LAWS = ("johnson", "hertz")
 
@@ -177,10 +174,7 @@ def main(argv=None) -> dict:
             f"{summary[law]['worst_gap']['correlation']:.2f}"
         )
     results = {
-        "command": " ".join(["python -m benchmarks.design_fidelity", *(
-            sys.argv[1:] if argv is None else argv)]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("design_fidelity", argv),
         "space": "36 per-gap coordinates around the ISO 606 minimum form: seating radius "
         "±20 µm, cw seat angle ±0.04 rad",
         "design_model": {"onset_width_m": model["width"], "dt_s": model["dt"],

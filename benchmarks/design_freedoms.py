@@ -18,13 +18,11 @@ same operating points (checked). Writes ``design_freedoms.json`` and
 
 from __future__ import annotations
 
-import datetime
 import json
-import sys
 import time
 from pathlib import Path
 
-from benchmarks._cli import finish, parse, parser, shown
+from benchmarks._cli import finish, header, parse, parser, shown
 
 RESULTS = Path(__file__).parent / "results"
 ISO = RESULTS / "optimize_iso" / "results.json"
@@ -158,13 +156,9 @@ def main(argv=None) -> dict:
         if not p.exists():
             raise SystemExit(f"{p} not found: make it with the command in this module's help")
         runs[name] = json.loads(p.read_text())
-    from benchmarks.work_precision import machine_info
 
-    given = sys.argv[1:] if argv is None else argv
     results = {
-        "command": " ".join(["python -m benchmarks.design_freedoms", *given]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("design_freedoms", argv),
         "sources": {"iso": shown(args.iso), "freeform": shown(args.freeform)},
         "runs": {k: {"settings": r["settings"], "versions": r.get("versions")}
                  for k, r in runs.items()},

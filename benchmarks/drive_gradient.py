@@ -31,17 +31,14 @@ gap's seating radius ±20 µm and clockwise seat angle ±0.05 rad, at the patter
 
 from __future__ import annotations
 
-import datetime
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, save_chart
+from benchmarks._cli import finish, header, parse, parser, save_chart
 from benchmarks.quiet_drive import CHAIN, LOAD, N_LINKS, PRETENSION, Z_DRIVEN, Z, drive_scene
-from benchmarks.work_precision import machine_info
 
 RPM = 1000.0
 TAKE_UP = 2 * PRETENSION  # as jc.scenes.drive settles the drive
@@ -304,11 +301,8 @@ def main(argv=None) -> dict:
         ]
         rows += [gradient_row("engagement", n) for n in horizons[:3]]
         band = band_probe()
-    given = sys.argv[1:] if argv is None else argv
     results = {
-        "command": " ".join(["python -m benchmarks.drive_gradient", *given]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("drive_gradient", argv),
         "scene": f"{CHAIN}, {N_LINKS} links, {Z}/{Z_DRIVEN} teeth, {RPM:g} rpm, {LOAD:g} N·m, "
         f"{PRETENSION:g} N pretension; design law (onset 3 µm), joint creep band 20 mm/s",
         "space": "36 per-gap coordinates (seating radius ±20 µm, cw seat angle ±0.05 rad)",

@@ -34,15 +34,12 @@ to lower the objective (1 = the uniform form).
 
 from __future__ import annotations
 
-import datetime
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, save_chart
-from benchmarks.work_precision import machine_info
+from benchmarks._cli import finish, header, parse, parser, save_chart
 
 # the robust objective's soft maximum over the two laws' relative values
 LAW_TEMPERATURE = 0.01
@@ -239,10 +236,7 @@ def main(argv=None) -> dict:
         return {law: measure(profile, c, rtol) for law, c in models.items()}
 
     results = {
-        "command": " ".join(["python -m benchmarks.pattern_design", *(
-            sys.argv[1:] if argv is None else argv)]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("pattern_design", argv),
         "form": args.form,
         "robust": args.robust,
         "design_model": {"onset_width_m": model["width"], "dt_s": model["dt"],

@@ -22,17 +22,14 @@ worst gap's engagement.
 
 from __future__ import annotations
 
-import datetime
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, save_chart, shown
-from benchmarks.work_precision import machine_info
+from benchmarks._cli import finish, header, parse, parser, save_chart, shown
 
 RESULT = Path(__file__).parent / "results" / "methods_every_gap.json"
 
@@ -132,11 +129,8 @@ def main(argv=None) -> dict:
     base = rows[0]
     for r in rows:
         r["change_vs_start"] = {law: r[law]["peak_N"] / base[law]["peak_N"] - 1 for law in models}
-    given = sys.argv[1:] if argv is None else argv
     results = {
-        "command": " ".join(["python -m benchmarks.pattern_remeasure", *given]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("pattern_remeasure", argv),
         "source": shown(args.result),
         "space": f"{row['space']}: {space.size} per-gap coordinates of {row['names']}",
         "rtol": rtol,

@@ -35,18 +35,16 @@ the speed where the uniform ISO minimum form is loudest.
 
 from __future__ import annotations
 
-import datetime
 import json
 import math
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, single_thread_env
+from benchmarks._cli import finish, header, parse, parser, single_thread_env
 
 CHAIN = "08B"
 Z, Z_DRIVEN, N_LINKS = 18, 36, 60
@@ -236,7 +234,6 @@ def chart(results: dict, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    from benchmarks.work_precision import machine_info
     from optimize.run import write_atomic
 
     ap = parser(__doc__, "two designs, one speed, a short window")
@@ -294,9 +291,7 @@ def main(argv=None) -> dict:
                 f"{row['num_steps']} steps, {row['solve_s']:.0f} s, peak {row['peak_N']:.0f} N"
             )
     results = {
-        "command": " ".join(["python -m benchmarks.quiet_drive", *(argv or sys.argv[1:])]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("quiet_drive", argv),
         "settings": settings | {"processes": args.processes, "orders": ORDERS.tolist()},
         "summary": summarize(rows, designs, speeds),
         "runs": sorted(rows, key=lambda r: (r["design"], r["rpm"])),

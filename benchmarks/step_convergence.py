@@ -33,9 +33,7 @@ the solve), which the values do not show. Writes ``step_convergence.json`` and
 
 from __future__ import annotations
 
-import datetime
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -46,8 +44,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from benchmarks._cli import finish, parse, parser, shown  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
+from benchmarks._cli import finish, header, parse, parser, shown  # noqa: E402
 from optimize.problem import Settings, make_problem  # noqa: E402
 
 RUN = Path(__file__).parent / "results" / "optimize_default" / "results.json"
@@ -181,11 +178,8 @@ def main(argv=None) -> dict:
     member = (1.5, 0.02)
     long = [] if args.quick else horizon(run, points["nelder_mead"], (4e-6, 2e-6), member=member)
     analyse(long)
-    given = sys.argv[1:] if argv is None else argv
     results = {
-        "command": " ".join(["python -m benchmarks.step_convergence", *given]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("step_convergence", argv),
         "run": shown(args.run),
         "points": {k: np.asarray(u).tolist() for k, u in points.items()},
         "rows": rows,
