@@ -13,6 +13,7 @@ from . import (
     observers as observers,
     scenes as scenes,
 )
+from ._adjoint import StepResidualsAdjoint as StepResidualsAdjoint
 from ._chain import ChainSpec as ChainSpec
 from ._dynamics import (
     DriveState as DriveState,
