@@ -14,8 +14,10 @@ gradient-free method or finite differences pay per parameter. Measured here, in 
   4 (the ISO 606 box), 36 (per-gap seating radius and clockwise seat angle) and 72
   coordinates (per-gap seating radius, both seat angles and seat offset);
 * for each: the wall time of the value alone and of value + gradient (the least of
-  ``repeats`` warm calls, the two interleaved; compile excluded), their ratio, and the
-  compile times.
+  ``repeats`` warm calls, interleaved; compile excluded), their ratio, and the compile
+  times; the gradient by the default fixed-step adjoint (every step's residuals kept,
+  :class:`jaxchain.StepResidualsAdjoint`) and by diffrax's checkpointing of every step
+  (each step run forward again on the way back), with the difference of the two.
 
 A value+gradient then counts as ``ratio`` simulations when methods are compared on one
 simulation budget (issue "design that pays": the ratio should stay ≤ 4 and flat in the
@@ -32,6 +34,7 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
+import diffrax  # noqa: E402
 import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
@@ -165,35 +168,59 @@ def measure(
     seed: int = 0,
     dt: float = DT,
     obj: ProfileObjective | None = None,
+    checkpointed: ProfileObjective | None = None,
 ) -> dict:
     """Value and value + gradient of ``obj`` (default: :func:`objective` over ``space``
-    with steps of ``dt``)."""
+    with steps of ``dt``); with ``checkpointed`` (the same objective differentiated with
+    every step checkpointed) also its value + gradient, timed interleaved with the
+    others, and how far its gradient lies from ``obj``'s."""
     obj = objective(space, dt=dt) if obj is None else obj
     u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
     scenes = obj.scenes(u)
-    t = time.perf_counter()
-    jax.block_until_ready(obj.value_on(u, scenes)[0])
-    compile_value = time.perf_counter() - t
-    t = time.perf_counter()
-    jax.block_until_ready(obj.value_and_grad_on(u, scenes)[1])
-    compile_grad = time.perf_counter() - t
-    # interleaved, so both see the same load; the least of each
-    value_s, grad_s = np.inf, np.inf
-    for _ in range(repeats):
-        value_s = min(value_s, _best(lambda: obj.value_on(u, scenes)[0], 1))
-        grad_s = min(grad_s, _best(lambda: obj.value_and_grad_on(u, scenes)[1], 1))
+    calls = {
+        "value": lambda: obj.value_on(u, scenes)[0],
+        "value_and_grad": lambda: obj.value_and_grad_on(u, scenes)[1],
+    }
+    if checkpointed is not None:
+        calls["value_and_grad_checkpointed"] = lambda: checkpointed.value_and_grad_on(u, scenes)[1]
+    first, best = {}, {}
+    for key, call in calls.items():  # compile
+        t = time.perf_counter()
+        jax.block_until_ready(call())
+        first[key], best[key] = time.perf_counter() - t, np.inf
+    for _ in range(repeats):  # interleaved, so all see the same load; the least of each
+        for key, call in calls.items():
+            best[key] = min(best[key], _best(call, 1))
     value, grad, _ = obj.value_and_grad_on(u, scenes)
-    return {
+    row = {
         "dimension": space.size,
-        "value_s": value_s,
-        "value_and_grad_s": grad_s,
-        "ratio": grad_s / value_s,
-        "first_value_s": compile_value,
-        "first_value_and_grad_s": compile_grad,
+        "value_s": best["value"],
+        "value_and_grad_s": best["value_and_grad"],
+        "ratio": best["value_and_grad"] / best["value"],
+        "first_value_s": first["value"],
+        "first_value_and_grad_s": first["value_and_grad"],
         "objective_N": float(value),
         "grad_norm": float(jnp.linalg.norm(grad)),
         "grad_finite": bool(np.all(np.isfinite(np.asarray(grad)))),
     }
+    if checkpointed is not None:
+        other = checkpointed.value_and_grad_on(u, scenes)[1]
+        row |= {
+            "value_and_grad_checkpointed_s": best["value_and_grad_checkpointed"],
+            "ratio_checkpointed": best["value_and_grad_checkpointed"] / best["value"],
+            "first_value_and_grad_checkpointed_s": first["value_and_grad_checkpointed"],
+            "grad_difference_checkpointed": float(jnp.linalg.norm(other - grad))
+            / float(jnp.linalg.norm(grad)),
+        }
+    return row
+
+
+def checkpointed(space: DesignSpace, dt: float = DT) -> ProfileObjective:
+    """:func:`objective` differentiated with every step checkpointed (diffrax's
+    ``RecursiveCheckpointAdjoint``, one checkpoint per step) instead of
+    :class:`~jaxchain.StepResidualsAdjoint`."""
+    n = jc.SolveOptions(dt=dt).steps(0.0, 2 * PERIOD)
+    return objective(space, dt=dt, adjoint=diffrax.RecursiveCheckpointAdjoint(checkpoints=n))
 
 
 def chart(results: dict, path) -> None:
@@ -205,7 +232,16 @@ def chart(results: dict, path) -> None:
     rows = results["rows"]
     dims = [r["dimension"] for r in rows]
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(dims, [r["ratio"] for r in rows], "o-", color="tab:red", label="reverse mode")
+    ax.plot(
+        dims,
+        [r["ratio"] for r in rows],
+        "o-",
+        color="tab:red",
+        label="reverse mode, every step's residuals kept",
+    )
+    if "ratio_checkpointed" in rows[0]:
+        ax.plot(dims, [r["ratio_checkpointed"] for r in rows], "s--", color="tab:orange",
+                label="reverse mode, every step checkpointed")  # fmt: skip
     ax.plot(dims, [d + 1 for d in dims], "--", color="0.5", label="forward differences (n + 1)")
     ax.axhline(4, color="k", lw=0.8, ls=":")
     ax.set_xscale("log")
@@ -231,11 +267,13 @@ def main(argv=None) -> dict:
     for name, space in spaces().items():
         if name not in picks:
             continue
-        row = measure(space, repeats)
+        row = measure(space, repeats, checkpointed=checkpointed(space))
         rows.append(row)
         print(
             f"dimension {row['dimension']:3d}: value {row['value_s']:.3f} s, value+grad "
-            f"{row['value_and_grad_s']:.3f} s, ratio {row['ratio']:.2f}",
+            f"{row['value_and_grad_s']:.3f} s, ratio {row['ratio']:.2f} (every step "
+            f"checkpointed: {row['ratio_checkpointed']:.2f}, gradients differ by "
+            f"{row['grad_difference_checkpointed']:.1e})",
             flush=True,
         )
     results = {
