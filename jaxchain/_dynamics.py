@@ -9,12 +9,14 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._gap import gap_contact, gap_shapes
+from ._freeform import FreeShape
+from ._gap import gap_contact, gap_shapes, with_table
 from ._numerics import cross2, safe_norm, safe_normalize, smooth_ramp
 from ._scene import ClearanceJoints, JointFriction, LinkSprings, Scene
 from ._shoe import shoe_contacts, shoe_frames
@@ -166,6 +168,19 @@ def _contact_slots(scene: Scene, n_rollers: int) -> int | None:
     return max(slots)
 
 
+def prepare(scene: Scene) -> Scene:
+    """``scene`` with its sprockets' contact shapes computed once (a free-form profile's
+    every gap outline: its :func:`~jaxchain._gap.gap_table`), for the steps of one solve to
+    read: the shapes depend on the profiles alone, so computing them in every evaluation
+    of the contact repeats the same work at every stage, and a gradient pulls back through
+    them at every stage too (on a 72-coordinate per-gap design objective, most of the
+    gradient's cost beyond the ISO box's)."""
+    shapes = gap_shapes([s.profile for s in scene.sprockets])
+    if isinstance(shapes, FreeShape):
+        shapes = jax.vmap(with_table)(shapes)
+    return eqx.tree_at(lambda s: s.prepared_shapes, scene, shapes, is_leaf=lambda x: x is None)
+
+
 def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     """Rollers against every sprocket (each roller sees its nearest gap: O(1) per pair);
     all the chain's elements but these are skipped (what the per-step peak record needs).
@@ -177,7 +192,9 @@ def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     r = scene.roller_radius
     n_r = xr.shape[0]
     slots = _contact_slots(scene, n_r)
-    shapes = gap_shapes([s.profile for s in scene.sprockets])
+    shapes = scene.prepared_shapes
+    if shapes is None:
+        shapes = gap_shapes([s.profile for s in scene.sprockets])
     centres = jnp.stack([s.centre for s in scene.sprockets])
 
     def one(shape, centre, theta, omega):

@@ -34,7 +34,7 @@ chain's) is the uniform ``seat_offset = (p' − p) / (2 sin(π/z))``.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
@@ -220,6 +220,7 @@ class FreeShape(eqx.Module):
     tip_diameter: Float[Array, ""]
     cw: Flank
     ccw: Flank
+    table: Any = None  # its jaxchain._gap.GapTable, where computed ahead (with_table)
 
     @property
     def roller_radius(self) -> Array:

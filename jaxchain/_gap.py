@@ -304,18 +304,30 @@ def _kinds(k: int) -> tuple[np.ndarray, np.ndarray]:
     return kind, corner
 
 
+def _gaps_given(shape: FreeShape) -> int | None:
+    """The number of gaps the shape's per-gap leaves give values for (None: uniform)."""
+    # leaves with one value per gap (a flank's curvature and breaks: a leading gap axis)
+    leaves = [shape.seating_radius, shape.seat_offset, shape.phase]
+    leaves += [f.seat_angle for f in (shape.cw, shape.ccw)]
+    gapped = [x for x in leaves if jnp.ndim(x)]
+    gapped += [x for f in (shape.cw, shape.ccw) for x in (f.curvature, f.breaks) if x.ndim == 2]
+    return jnp.shape(gapped[0])[0] if gapped else None
+
+
+def with_table(shape: FreeShape) -> FreeShape:
+    """``shape`` carrying its :func:`gap_table`: a solve computes it once, before its loop,
+    instead of in every evaluation of the contact (and, in a gradient, pulls its
+    cotangent back through the table once instead of at every stage of every step)."""
+    return eqx.tree_at(lambda s: s.table, shape, gap_table(shape)[0], is_leaf=lambda x: x is None)
+
+
 def gap_table(shape: FreeShape) -> tuple[GapTable, bool]:
     """The features of every gap, computed once per evaluation of the contact (every
     point then reads its two gaps' rows), and whether the shape has per-gap leaves.
     Per-gap: one row per gap, sprocket frame. Uniform: gaps 0 and 1 in gap 0's frame
     (every pair of neighbours is that pair rotated), and gap 2 for gap 1's tip."""
     z = shape.teeth
-    # leaves with one value per gap (a flank's curvature and breaks: a leading gap axis)
-    leaves = [shape.seating_radius, shape.seat_offset, shape.phase]
-    leaves += [f.seat_angle for f in (shape.cw, shape.ccw)]
-    gapped = [x for x in leaves if jnp.ndim(x)]
-    gapped += [x for f in (shape.cw, shape.ccw) for x in (f.curvature, f.breaks) if x.ndim == 2]
-    n = jnp.shape(gapped[0])[0] if gapped else None
+    n = _gaps_given(shape)
     per_gap = n is not None  # any leaf with one value per gap: geometry for each gap
     radius = shape.pitch / (2 * jnp.sin(jnp.pi / z))
     ra = shape.tip_diameter / 2
@@ -389,7 +401,10 @@ def _free_signed_distance(shape: FreeShape, point: Array) -> tuple[Array, Array,
     arcs is the projection onto one arc's interior or a corner (at a junction the point
     would project onto it from both arcs), so the features are the arcs and the tip
     corners: exact Euclidean distance, signed by the nearest feature's material side."""
-    table, per_gap = gap_table(shape)
+    if shape.table is None:
+        table, per_gap = gap_table(shape)
+    else:
+        table, per_gap = shape.table, _gaps_given(shape) is not None
     k = (table.radius.shape[1] - 4) // 2
     kind, corner = _kinds(k)
     z = shape.teeth

@@ -9,6 +9,8 @@ Bodies of the chain are planar rigid bodies with state (x, y, φ): links in the
 
 from __future__ import annotations
 
+from typing import Any
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -359,6 +361,8 @@ class Scene(eqx.Module):
         gravity: (2,) [m/s²].
         tensioners: tensioner arms, or None.
         shoes: tensioner shoes and fixed guides, or None.
+        prepared_shapes: None, except inside a solve: the sprockets' contact shapes
+            computed once before its loop (``jaxchain._dynamics.prepare``).
     """
 
     mass: Float[Array, " N"]
@@ -381,6 +385,7 @@ class Scene(eqx.Module):
     fidelity: str = eqx.field(static=True)
     tensioners: Tensioners | None = None
     shoes: Shoes | None = None
+    prepared_shapes: Any = None
 
     @property
     def n_bodies(self) -> int:

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
-from ._dynamics import DriveState, forces, initial_state, outputs, rates
+from ._dynamics import DriveState, forces, initial_state, outputs, prepare, rates
 from ._numerics import is_concrete
 from ._observers import AbstractIntegralObserver, AbstractStepObserver, Health
 from ._options import Resolved
@@ -155,6 +155,7 @@ def solve(
     integrals = tuple(o for o in observers if isinstance(o, AbstractIntegralObserver))
     if len(steps) + len(integrals) != len(observers):
         raise TypeError(f"observers must be step or integral observers, got {observers!r}")
+    scene = prepare(scene)
     y0 = initial_state(scene)
     i0 = tuple(_zeros_of(o, t0, y0, scene) for o in integrals)
     subs = [diffrax.SubSaveAt(t1=True)]
