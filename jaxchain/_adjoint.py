@@ -23,14 +23,16 @@ class StepResidualsAdjoint(diffrax.AbstractAdjoint):
     it. Here the solve's steps are one ``lax.scan`` of exactly ``max_steps`` iterations
     (each a no-op once the solve has ended), which JAX differentiates as it does any scan:
     the forward pass keeps what each step's pullback needs, and the backward pass runs
-    only the pullbacks. On the design objective (08B engagement, fixed 4 µs Tsit5 steps)
-    value+gradient takes 0.77× the time it takes with every step checkpointed (value +
-    gradient / value 3.3 instead of 4.6, at the same gradient to 1e-10), for about
-    12 states of memory per step instead of one.
+    only the pullbacks. On the design objective (08B engagement, fixed 4 µs Tsit5 steps,
+    ``benchmarks/gradient_cost.py``) value + gradient takes 13–14 % less time than with
+    every step checkpointed (3.5× the value instead of 4.1× in the ISO box, 4.2× instead of
+    4.9× over 36 and 72 per-gap coordinates), at the same gradient, for about 12 states of
+    memory per step instead of one.
 
     For fixed steps only (``diffrax.ConstantStepSize``), with ``max_steps`` the solve's
     step count (``SolveOptions(dt=...)`` sets both, and uses this adjoint by default):
-    every one of the ``max_steps`` iterations runs, so a larger budget is paid in full.
+    iterations past the solve's end are skipped alone but computed and discarded in a
+    vmapped batch, so a larger budget can be paid in full.
     A solve that is not differentiated runs at the speed of diffrax's own loop (−3 to +7 %
     measured on the design objective).
     """

@@ -343,8 +343,8 @@ def observe(
 ) -> Observed:
     """One observer's value over [0, t1], carried by the one solve (``simulate``'s), the
     outcome reported as a result code (classified as ``simulate`` classifies it), not
-    raised. Solve options as in :func:`~jaxchain.simulate`; ``dt`` gives fixed steps with
-    every step checkpointed (for gradients checked against finite differences)."""
+    raised. Solve options as in :func:`~jaxchain.simulate`; ``dt`` gives fixed steps,
+    differentiated exactly (for gradients checked against finite differences)."""
     opts = with_options(options, solve_options, "observe")
     _objective_observer(observer, "observe")
     if is_concrete(t1):
@@ -447,7 +447,7 @@ def soft_peak_force(
     spike, see there).
 
     Solve options as in :func:`~jaxchain.simulate` (``options=`` and/or keywords).
-    ``dt`` gives fixed steps, ⌈t1/dt⌉ of them with every step checkpointed (a smooth
+    ``dt`` gives fixed steps, ⌈t1/dt⌉ of them, differentiated exactly (a smooth
     function of every parameter, as needed for gradients checked against finite
     differences); without it, adaptive steps (PID, ``rtol``/``atol`` in the max norm).
 

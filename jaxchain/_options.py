@@ -54,8 +54,8 @@ class SolveOptions(eqx.Module):
             diffrax's ≈ √(2·max_steps) checkpoints, which differentiates the discrete
             solve exactly, recomputing steps). Fixed steps whose residuals would not fit in
             memory: ``diffrax.RecursiveCheckpointAdjoint(checkpoints=n_steps)`` (one state
-            per step, each step run again backwards: value+gradient 4.6× the value on
-            the design objective, against 3.3× with the default).
+            per step, each step run again backwards: value+gradient 4.1–4.9× the value
+            on the design objective, against 3.5–4.2× with the default).
         progress: show a progress meter (tqdm if installed, else text).
         allow_float32: accept a float32 scene (jax_enable_x64 off); otherwise its solve is
             reported as ``float32_state`` (its forces can be wrong while it looks

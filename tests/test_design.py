@@ -259,7 +259,7 @@ def test_resettle_follows_the_equilibrium():
 
 # ------------------------------------------------------------------ gradients
 def test_gradient_matches_central_differences(short_objective):
-    """Reverse mode through the fixed-step solve (recursive checkpointing at every step)
+    """Reverse mode through the fixed-step solve (every step's residuals kept)
     and the implicit statics, against central differences of the same fixed-step
     objective (scenes held at the base point's equilibrium, as the gradient sees them),
     along a random direction of the three coordinates the solve sees: every one of their
