@@ -15,6 +15,7 @@ from matplotlib.path import Path
 from scipy.spatial import cKDTree
 
 import jaxchain as jc
+from jaxchain._gap import with_table
 
 CH = jc.ChainSpec.iso606("08B")
 Z = 18
@@ -558,6 +559,17 @@ def test_a_per_gap_pattern_simulates():
     sol = jc.simulate(scene, 2 * 60.0 / (Z * 1000.0))
     assert sol.result == jc.Result.successful
     assert 300 < float(sol.peak_contact_force) < 4000
+
+
+def test_a_table_computed_ahead_reads_the_same():
+    """What a solve does before its loop (every gap's outline table computed once:
+    ``jaxchain._gap.with_table``) changes no distance or normal beyond rounding (fused
+    differently). Its gradients: the per-gap design gradient's check against central
+    differences (``test_orders.py``) runs through it."""
+    p = pattern(np.random.default_rng(5))
+    shape, pts = p.shape(), jnp.asarray(ring(p, 300, np.random.default_rng(6)))
+    for a, b in zip(sd_many(shape, pts), sd_many(with_table(shape), pts), strict=True):
+        np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=1e-12, atol=1e-15)
 
 
 # --------------------------------------------------------------------------- CAD
