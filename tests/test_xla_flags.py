@@ -1,6 +1,6 @@
 """The test suite's XLA flag (tests/xla_flags.py)."""
 
-from xla_flags import FLAG, MEASURED, fast_compile
+from xla_flags import FLAG, MEASURED, fast_compile, worker_core
 
 
 def test_compile_flag_only_where_measured():
@@ -14,3 +14,10 @@ def test_compile_flag_only_where_measured():
     assert mine["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=true"
     other = {}
     assert not fast_compile(other, (99, 0)) and "XLA_FLAGS" not in other
+
+
+def test_each_worker_its_own_core_when_there_are_enough():
+    env = lambda w, n: {"PYTEST_XDIST_WORKER": w, "PYTEST_XDIST_WORKER_COUNT": str(n)}  # noqa: E731
+    assert [worker_core(env(f"gw{i}", 2), [3, 1]) for i in range(2)] == [1, 3]
+    assert worker_core(env("gw0", 3), [0, 1]) is None  # more workers than cores: unpinned
+    assert worker_core({}, [0, 1]) is None  # not under xdist

@@ -43,3 +43,32 @@ def fast_compile(environ=os.environ, version: tuple[int, int] | None = None) -> 
         return False
     environ["XLA_FLAGS"] = f"{flags} {FLAG}".strip()
     return True
+
+
+def worker_core(environ, cores: list[int]) -> int | None:
+    """The core for this pytest-xdist worker among the allowed ``cores``: worker i gets
+    the i-th, when there are no more workers than cores; None otherwise (or outside
+    xdist)."""
+    worker, count = environ.get("PYTEST_XDIST_WORKER"), environ.get("PYTEST_XDIST_WORKER_COUNT")
+    if not (worker and count and worker.startswith("gw")):
+        return None
+    index = int(worker.removeprefix("gw"))
+    if int(count) > len(cores) or index >= len(cores):
+        return None
+    return sorted(cores)[index]
+
+
+def pin_worker(environ=os.environ) -> int | None:
+    """Pin a pytest-xdist worker to a core of its own (:func:`worker_core`) before JAX
+    starts, so that XLA's threads and the notebook kernels the worker starts inherit it.
+    Returns the core, or None.
+
+    On the 2-core CI-class VM an unpinned process's solves sometimes run at half speed
+    for its whole life (the same compiled solve 0.25 s instead of 0.13 s, every call);
+    not seen pinned (benchmarks/README.md, gradient_cost)."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    core = worker_core(environ, list(os.sched_getaffinity(0)))
+    if core is not None:
+        os.sched_setaffinity(0, {core})
+    return core
