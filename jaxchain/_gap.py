@@ -322,8 +322,9 @@ def with_table(shape: FreeShape) -> FreeShape:
 
 
 def gap_table(shape: FreeShape) -> tuple[GapTable, bool]:
-    """The features of every gap, computed once per evaluation of the contact (every
-    point then reads its two gaps' rows), and whether the shape has per-gap leaves.
+    """The features of every gap, computed once per solve (:func:`with_table`) or per
+    evaluation of the contact (every point then reads its two gaps' rows), and whether the
+    shape has per-gap leaves.
     Per-gap: one row per gap, sprocket frame. Uniform: gaps 0 and 1 in gap 0's frame
     (every pair of neighbours is that pair rotated), and gap 2 for gap 1's tip."""
     z = shape.teeth
