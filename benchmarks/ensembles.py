@@ -308,7 +308,9 @@ def gradient_study(n, t1, dt, repeats, default_adjoint=True):
     """d(mean peak over members)/d(seating radius) through ``simulate_ensemble`` (called
     inside ``jax.value_and_grad``: one vmapped batch), fixed steps, with diffrax's
     default recursive checkpointing (~√(2n) checkpoints, some steps recomputed) and with
-    every step checkpointed (no recomputation; memory ~ steps × state)."""
+    every step checkpointed (no step recomputed from an earlier checkpoint, each run forward
+    once more before its own pullback; memory ~ steps × state). ``SolveOptions(dt=...)``
+    keeps every step's residuals instead (``jc.StepResidualsAdjoint``, ``gradient_cost``)."""
     scs = members(spread_speeds(n, 0.1))
     stacked = jc.scenes.stack(scs)
     steps = int(math.ceil(t1 / dt))
