@@ -67,7 +67,7 @@ def pin_worker(environ=os.environ) -> int | None:
     On the 2-core CI-class VM an unpinned process's solves sometimes run at half speed
     for its whole life (the same compiled solve 0.25 s instead of 0.13 s, every call);
     not seen pinned (benchmarks/README.md, gradient_cost). The default test run from a
-    fresh clone: 313 and 319 s pinned, against 351–382 s in five unpinned runs of nearly
+    fresh clone: 313–324 s pinned (three runs), against 351–382 s in five unpinned runs of nearly
     the same suite (and 10 % less CPU time)."""
     if not hasattr(os, "sched_setaffinity"):
         return None
