@@ -47,6 +47,7 @@ from jaxchain.design import DesignSpace, ProfileObjective  # noqa: E402
 CHAIN = jc.ChainSpec.iso606("08B")
 Z, RPM = 18, 1000.0
 PERIOD = 60.0 / (Z * RPM)
+T1 = 2 * PERIOD  # the design objective's solve: two tooth periods
 LAW = jc.scenes.roller_law(CHAIN, 0.7, width=3e-6)
 JOINTS = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
 DT = 4e-6  # the fixed step [s]
@@ -105,7 +106,7 @@ def objective(
     ``samples`` times per step; ``kwargs`` go to :class:`ProfileObjective` (e.g.
     ``throw=False``)."""
     return ProfileObjective(
-        space, build, t1=2 * PERIOD, t_start=PERIOD, temperature=20.0, reference=1500.0,
+        space, build, t1=T1, t_start=PERIOD, temperature=20.0, reference=1500.0,
         dt=dt, samples=samples, **kwargs,
     )  # fmt: skip
 
@@ -219,7 +220,7 @@ def checkpointed(space: DesignSpace, dt: float = DT) -> ProfileObjective:
     """:func:`objective` differentiated with every step checkpointed (diffrax's
     ``RecursiveCheckpointAdjoint``, one checkpoint per step) instead of
     :class:`~jaxchain.StepResidualsAdjoint`."""
-    n = jc.SolveOptions(dt=dt).steps(0.0, 2 * PERIOD)
+    n = jc.SolveOptions(dt=dt).steps(0.0, T1)
     return objective(space, dt=dt, adjoint=diffrax.RecursiveCheckpointAdjoint(checkpoints=n))
 
 
