@@ -274,3 +274,40 @@ def test_speed_groups_combine_as_one_objective_over_all_members():
         assert float(combined.value(jnp.zeros(2))[0]) == float(value)
     combined.evaluations = 42  # a resumed run restores its count
     assert combined.evaluations == 42
+
+
+def test_remeasurement_solves_side_by_side_are_those_solved_one_by_one():
+    """The re-measurement runs its independent solves in threads (one per core): the
+    results are bit for bit those of one solve after the other, and the solve holds no
+    custom call (a batched LAPACK kernel inside two executions at once can take every
+    thread of XLA's pool and wait for itself)."""
+    import re
+
+    import diffrax
+    import jax
+
+    from optimize.__main__ import fast_settings
+    from optimize.problem import Settings, iso_forms, make_problem, remeasure_many, second_law
+
+    s = fast_settings(Settings())
+    s.wear = (0.0, 0.02)
+    problem = make_problem(s)
+    forms = iso_forms(problem)
+    (one,) = remeasure_many(problem, [(forms["min"], "hertz")], threads=1)
+    (two,) = remeasure_many(problem, [(forms["min"], "hertz")], threads=2)
+    assert one["peak_N"] == two["peak_N"]
+    assert [r["wear"] for r in two["members"]] == [0.0, 0.02]
+    for a, b in zip(one["members"], two["members"], strict=True):
+        assert a["ok"] and a["steps"] == b["steps"]
+        np.testing.assert_array_equal(a["force"], b["force"])
+        np.testing.assert_array_equal(a["torque"], b["torque"])
+
+    scene = problem.build(forms["min"], 1.0, roller_contact=second_law(problem.chain))
+    solve = jax.jit(
+        lambda sc: (
+            jc.simulate(
+                sc, problem.t1, solver=diffrax.Dopri8(), n_save=3, max_steps=10, throw=False
+            ).roller_sprocket_force
+        )
+    )
+    assert not re.findall(r"custom_call", solve.lower(scene).as_text())
