@@ -137,15 +137,15 @@ def test_step_residuals_adjoint_checkpoints_past_its_memory_limit():
     """Where the residuals would pass ``memory_limit``, the gradient comes from recursive
     checkpointing instead: each step's input kept where that fits, diffrax's default
     checkpoints where not — the same gradient, less memory."""
-    n = 2000  # state: 2 float64 (16 B); residuals reckoned at 24 states: 768 kB
+    n = 500  # state: 2 float64 (16 B); residuals reckoned at 24 states: 192 kB
 
     def temp_and_grad(limit):
         f = jax.jit(jax.grad(lambda k: _oscillator(k, jc.StepResidualsAdjoint(limit), n=n)))
         return f.lower(2.5).compile().memory_analysis().temp_size_in_bytes, f(2.5)
 
     kept, g_kept = temp_and_grad(None)
-    every, g_every = temp_and_grad(1e5)  # each step's input (32 kB) fits
-    few, g_few = temp_and_grad(1e4)  # it does not: ~√(2n) checkpoints
+    every, g_every = temp_and_grad(2e4)  # each step's input (8 kB) fits
+    few, g_few = temp_and_grad(4e3)  # it does not: ~√(2n) checkpoints
     np.testing.assert_allclose([g_every, g_few], [g_kept, g_kept], rtol=1e-12)
     assert kept > 2 * every > 4 * few, (kept, every, few)
     assert jc.StepResidualsAdjoint().memory_limit == 1e9
