@@ -46,16 +46,18 @@ class SolveOptions(eqx.Module):
         dt: fixed steps of about ``dt`` [s]: ⌈(t1 − t0)/dt⌉ equal steps, differentiated
             by :class:`~jaxchain.StepResidualsAdjoint` unless ``adjoint`` says otherwise
             (the exact discrete gradient, every step's residuals kept: nothing recomputed,
-            memory ≈ 12 states per step). The step count is part of the compiled solve.
+            memory 12–22 states per step; past 1 GB per solve it checkpoints instead). The
+            step count is part of the compiled solve.
         max_steps: step budget (static).
         stepsize_controller: overrides the default controller.
         adjoint: diffrax adjoint for gradients (default: with ``dt``,
             :class:`~jaxchain.StepResidualsAdjoint`; otherwise recursive checkpointing with
             diffrax's ≈ √(2·max_steps) checkpoints, which differentiates the discrete
             solve exactly, recomputing steps). Fixed steps whose residuals would not fit in
-            memory: ``diffrax.RecursiveCheckpointAdjoint(checkpoints=n_steps)`` (one state
-            per step, each step run again backwards: value+gradient 4.1–4.9× the value
-            on the design objective, against 3.5–4.2× with the default).
+            memory: ``StepResidualsAdjoint(memory_limit=...)`` sets where it switches to
+            ``diffrax.RecursiveCheckpointAdjoint(checkpoints=n_steps)`` (one state per
+            step, each step run again backwards: value+gradient 4.1–4.9× the value on the
+            design objective, against 3.5–4.2× with the residuals kept).
         progress: show a progress meter (tqdm if installed, else text).
         allow_float32: accept a float32 scene (jax_enable_x64 off); otherwise its solve is
             reported as ``float32_state`` (its forces can be wrong while it looks
