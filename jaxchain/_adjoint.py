@@ -79,6 +79,14 @@ class StepResidualsAdjoint(diffrax.AbstractAdjoint):
             )
         if max_steps is None:
             raise ValueError("StepResidualsAdjoint needs max_steps: the solve's step count")
+        common = dict(
+            terms=terms,
+            saveat=saveat,
+            init_state=init_state,
+            max_steps=max_steps,
+            stepsize_controller=stepsize_controller,
+            **kwargs,
+        )
         state = state_bytes(init_state.y)
         if (
             self.memory_limit is not None
@@ -87,25 +95,15 @@ class StepResidualsAdjoint(diffrax.AbstractAdjoint):
             every = state * max_steps <= self.memory_limit
             fallback = diffrax.RecursiveCheckpointAdjoint(checkpoints=max_steps if every else None)
             return fallback.loop(
-                terms=terms,
-                saveat=saveat,
-                init_state=init_state,
-                max_steps=max_steps,
                 throw=throw,
                 passed_solver_state=passed_solver_state,
                 passed_controller_state=passed_controller_state,
-                stepsize_controller=stepsize_controller,
-                **kwargs,
+                **common,
             )
         # "bounded" with base = max_steps: one scan of max_steps conditional steps, no
         # nesting and no checkpoints (equinox's bounded loop checkpoints only its inner levels)
         return self._loop(
-            terms=terms,
-            saveat=saveat,
-            init_state=init_state,
-            max_steps=max_steps,
-            stepsize_controller=stepsize_controller,
             inner_while_loop=ft.partial(_inner, kind="bounded"),
             outer_while_loop=ft.partial(_outer, kind="bounded", base=max(max_steps, 2)),
-            **kwargs,
+            **common,
         )
