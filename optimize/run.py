@@ -327,18 +327,19 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     designs.append((f"iso_{better}", forms[better]))
     # every solve at once (independent: they share the cores), the better ISO form's
     # Johnson solves kept from step 1 where this run made them
+    kept = {(f"iso_{better}", "johnson"): measured[better]} if better in measured else {}
     todo = [
         (name, prof, law)
         for name, prof in designs
         for law in ("johnson", "hertz")
-        if name in candidates or law == "hertz" or better not in measured
+        if (name, law) not in kept
     ]
     todo += [(f"iso_{other}", forms[other], "hertz") for other in FORMS if other != better]
     done = remeasure_many(problem, [(prof, law) for _, prof, law in todo])
-    results_by = {(name, law): m for (name, _, law), m in zip(todo, done, strict=True)}
+    results_by = kept | {(name, law): m for (name, _, law), m in zip(todo, done, strict=True)}
     for name, _ in designs:
         for law in ("johnson", "hertz"):
-            m = results_by.get((name, law)) or measured[better]
+            m = results_by[(name, law)]
             checks.setdefault(name, {})[law] = {
                 "peak_N": m["peak_N"],
                 "members": [jsonable(r) for r in m["members"]],
