@@ -68,7 +68,8 @@ def pin_worker(environ=os.environ) -> int | None:
     for its whole life (the same compiled solve 0.25 s instead of 0.13 s, every call);
     not seen pinned (benchmarks/README.md, gradient_cost). The default test run from a
     fresh clone: 313–324 s pinned (three runs), against 351–382 s in five unpinned runs of nearly
-    the same suite (and 10 % less CPU time)."""
+    the same suite (and 10 % less CPU time); 341–363 s pinned in three later runs with about
+    15 s more tests, the rest this VM's spread between days."""
     if not hasattr(os, "sched_setaffinity"):
         return None
     core = worker_core(environ, list(os.sched_getaffinity(0)))
