@@ -90,7 +90,7 @@ class ProfileGeometry(NamedTuple):
 class SprocketDerived:
     """What every tooth profile derives alike from its ``teeth``, ``pitch``,
     ``roller_diameter`` and ``seating_radius`` (a field-less mixin of the profile
-    classes), and its CAD export."""
+    classes), its CAD export and its saving as JSON."""
 
     @property
     def pitch_diameter(self) -> Array:
@@ -117,6 +117,16 @@ class SprocketDerived:
         from ._cad import write_dxf
 
         return write_dxf(self, path)
+
+    def save(self, path) -> Path:
+        """Write the profile to ``path`` as human-readable JSON (every field; floats exact),
+        to keep or share a design; ``jc.load_profile(path)`` reads it back equal leaf for
+        leaf. Returns the path. Raises ``TypeError`` for a traced profile (inside ``jit``,
+        ``grad`` or ``vmap``)."""
+        # imported here: _profile_io imports this module and _freeform at its top
+        from ._profile_io import save_profile
+
+        return save_profile(self, path)
 
 
 class ToothProfile(SprocketDerived, eqx.Module):

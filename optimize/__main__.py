@@ -14,8 +14,9 @@ objective (``benchmarks/step_convergence.py``). Adam runs first, then Nelder–M
 the same objective; both designs are re-measured (tight tolerance, nominal and second
 contact law) and the better one is delivered.
 Writes results.json (with a top-level "summary"), profile.png, forces.png,
-spectra.png (the driver torque's spectrum before/after), objective.png and the designed
-sprocket as sprocket.dxf to --out; checkpoints every iteration (--resume continues after
+spectra.png (the driver torque's spectrum before/after), objective.png, the designed
+sprocket as sprocket.dxf and the delivered design as profile.json (jc.load_profile
+reads it) to --out; checkpoints every iteration (--resume continues after
 an interrupt). Adam's gradient is clipped to a norm of 100 N (--clip; 0 turns it off):
 a rebound that appears or vanishes spikes it. ``JAXCHAIN_FAST=1`` (or --fast) runs a
 small version for smoke tests. Compiled solves are kept in a persistent compilation

@@ -3,6 +3,7 @@ independent re-measurement, results folder (JSON + figures)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -24,6 +25,7 @@ from .problem import Problem, Settings, iso_forms, make_problem, profile_values,
 CHECKPOINT = "checkpoint.json"
 FORMS = ("min", "max", "mid")  # the ISO 606 tooth-gap forms every run is compared with
 RESULTS = "results.json"
+PROFILE = "profile.json"  # the delivered design, read back by jc.load_profile
 
 
 # ---------------------------------------------------------------------- files
@@ -62,6 +64,39 @@ def jsonable(x):
     if isinstance(x, float) and not math.isfinite(x):
         return None
     return x
+
+
+def write_design(out: Path, profile) -> None:
+    """The delivered design's files in ``out``: ``profile.json`` (the profile itself, for
+    ``jc.load_profile``) and ``sprocket.dxf`` (its outline as DXF arcs in millimetres)."""
+    profile.save(out / PROFILE)
+    profile.to_dxf(out / "sprocket.dxf")
+
+
+def delivered_profile(results: dict):
+    """The design delivered by a run, from its ``results.json`` (read as a dict): the
+    design space of its settings at its coordinates ``optimized.u``. Raises ``ValueError``
+    if that profile's parameters are not those the results record (the design space has
+    changed since the run)."""
+    known = {f.name for f in dataclasses.fields(Settings)}
+    given = {k: v for k, v in results["settings"].items() if k in known}
+    given["ensemble"], given["wear"] = tuple(given["ensemble"]), tuple(given["wear"])
+    problem = make_problem(Settings(**given))
+    profile = problem.space.profile(jnp.asarray(results["optimized"]["u"], dtype=float))
+    if profile_values(profile, problem.space) != results["optimized"]["params"]:
+        raise ValueError(
+            "the results' coordinates give other parameters in this version's design space "
+            "than the run recorded; the design cannot be rebuilt from them"
+        )
+    return profile
+
+
+def write_profile_from_results(folder: str | Path) -> Path:
+    """Write ``folder``/profile.json from ``folder``/results.json (a run made before the
+    job wrote it); returns its path. Needs float64 (``jax_enable_x64``)."""
+    folder = Path(folder)
+    results = json.loads((folder / RESULTS).read_text())
+    return delivered_profile(results).save(folder / PROFILE)
 
 
 def versions() -> dict:
@@ -419,7 +454,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     }
     if lead:
         write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
-        optimized.to_dxf(out / "sprocket.dxf")
+        write_design(out, optimized)
         figures(problem, out, forms, optimized, better, history, nm, traces, spectra)
     log(summary(results), quiet)
     return results

@@ -79,6 +79,10 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
     assert all(0 < f < 1 for f in saved["optimized"]["fraction_of_box"])
     assert saved["problem"] == "iso" and len(saved["optimized"]["u"]) == 4
     assert (out / "sprocket.dxf").stat().st_size > 10_000
+    # the delivered design, saved as a profile that loads back with its parameters
+    from optimize.problem import profile_values
+
+    assert profile_values(jc.load_profile(out / "profile.json")) == saved["optimized"]["params"]
     # re-measured with both laws, sharp peaks of physical size
     for design in saved["remeasured"].values():
         for law in ("johnson", "hertz"):
@@ -101,6 +105,7 @@ def test_default_problem_runs_end_to_end(tmp_path):
     assert res["summary"]["remeasured"] is True
     for name in ("profile.png", "forces.png", "spectra.png", "objective.png", "sprocket.dxf"):
         assert (tmp_path / name).stat().st_size > 10_000
+    assert jc.load_profile(tmp_path / "profile.json").arcs == 2
 
 
 def test_torque_spectrum_reads_amplitudes_and_band_rms():
