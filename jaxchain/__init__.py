@@ -22,6 +22,14 @@ from ._dynamics import (
     roller_kinematics as roller_kinematics,
     vector_field as vector_field,
 )
+from ._engagements import (
+    Engagements as Engagements,
+    PeakComparison as PeakComparison,
+    PeakStatistics as PeakStatistics,
+    compare_peaks as compare_peaks,
+    engagement_peaks as engagement_peaks,
+    peak_statistics as peak_statistics,
+)
 from ._ensemble import (
     EnsembleSolution as EnsembleSolution,
     simulate_ensemble as simulate_ensemble,
@@ -47,6 +55,7 @@ from ._profile import (
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,
 )
+from ._profile_io import load_profile as load_profile
 from ._result import (
     Result as Result,
     SolveError as SolveError,

@@ -8,6 +8,8 @@ sampled = jc.observers.SampledSoftPeak(t_start, rise, temperature, reference, sa
 lines = jc.observers.OrderSpectrum(range(64), 0.2, 2.2, signal="torque", sprocket=1, reference=0)
 band = jc.observers.BandLevel.mesh_band(18, 0.2, 2.2)   # largest line, 0.5-3.5 mesh orders [dB]
 chordal = jc.observers.SpeedVariation(0.2, 2.2, sprocket=1)
+meshing = jc.observers.EngagementPeaks(window=0.5)   # every meshing event's peak force
+# (per sprocket and roller, windows in tooth periods); read with jc.engagement_peaks(sol)
 sol = jc.simulate(scene, t1, observers=(lines, chordal)); sol.observed
 
 A step observer sees every accepted step (start and end states, the solver's dense
@@ -17,6 +19,10 @@ it); the design objectives a :class:`SoftPeak` or the observer they are given. N
 objectives computed inside the solve subclass one of the two abstract classes.
 """
 
+from ._engagements import (
+    EngagementPeaks as EngagementPeaks,
+    EngagementRecord as EngagementRecord,
+)
 from ._numerics import parabola_max as parabola_max
 from ._observers import (
     EXP_CAP as EXP_CAP,
