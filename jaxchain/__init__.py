@@ -41,7 +41,7 @@ from ._gap import (
     signed_distance as signed_distance,
 )
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
-from ._options import SolveOptions as SolveOptions
+from ._options import DEFAULT_DT0 as DEFAULT_DT0, SolveOptions as SolveOptions
 from ._plot import plot_profiles as plot_profiles, plot_sprocket as plot_sprocket
 from ._plot_drive import (
     animate as animate,

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from ._contact.dahl import DahlFriction
 from ._freeform import FreeShape
 from ._gap import gap_contact, gap_shapes, with_table
 from ._numerics import cross2, safe_norm, safe_normalize, smooth_ramp
@@ -32,13 +33,15 @@ __all__ = [
     "roller_contacts",
     "roller_kinematics",
     "contact_slots_ok",
+    "bristle_layout",
 ]
 
 
 class DriveState(NamedTuple):
     """ODE state. q, v: (N, 3) bodies' (x, y, φ) and rates; theta, omega: (S,) sprockets;
     arm, arm_rate: (A,) tensioner arm angles [rad] and rates [rad/s] (None without
-    tensioners)."""
+    tensioners); bristle: (F,) pre-sliding deflections [m] of the joints with
+    :class:`~jaxchain.contact.DahlFriction` (None without; order: :func:`bristle_layout`)."""
 
     q: Float[Array, "N 3"]
     v: Float[Array, "N 3"]
@@ -46,6 +49,7 @@ class DriveState(NamedTuple):
     omega: Float[Array, " S"]
     arm: Float[Array, " A"] | None = None
     arm_rate: Float[Array, " A"] | None = None
+    bristle: Float[Array, " F"] | None = None
 
 
 class Forces(NamedTuple):
@@ -59,6 +63,8 @@ class Forces(NamedTuple):
     shoe_normal: Float[Array, " R"] | None = None  # roller/shoe normal force per roller [N]
     shoe_force: Float[Array, "K 2"] | None = None  # force of the chain on each shoe [N]
     arm_torque: Float[Array, " A"] | None = None  # torque of the chain on each arm [N·m]
+    bristle_rate: Float[Array, " F"] | None = None  # d/dt of DriveState.bristle [m/s]
+    joint_friction_power: Float[Array, ""] | None = None  # power of the joints' friction [W]
 
 
 def _check_scene(scene, caller: str) -> None:
@@ -95,6 +101,18 @@ def _check_state(y, scene, caller: str) -> None:
                 f"{caller}: y.{name} must have shape ({na},) for this scene ({na} tensioner "
                 "arms), got None; start from jc.initial_state(scene)"
             )
+    nb = n_bristles(scene)
+    if nb:
+        want["bristle"] = (nb,)
+    elif y.bristle is not None:
+        raise ValueError(
+            f"{caller}: y.bristle must be None for a scene without Dahl joint friction"
+        )
+    if nb and y.bristle is None:
+        raise ValueError(
+            f"{caller}: y.bristle must have shape ({nb},) for this scene (its joints' Dahl "
+            "friction states), got None; start from jc.initial_state(scene)"
+        )
     for name, shape in want.items():
         got = np.shape(getattr(y, name))
         if got != shape:
@@ -118,7 +136,46 @@ def initial_state(scene: Scene) -> DriveState:
         omega=jnp.stack([s.speed for s in scene.sprockets]),
         arm=None if tn is None else tn.angle0,
         arm_rate=None if tn is None else tn.rate0,
+        bristle=_zero_bristle(scene),
     )
+
+
+def bristle_layout(scene: Scene) -> tuple[tuple[str, int, int, int], ...]:
+    """Where each stateful (Dahl) joint friction keeps its states in ``DriveState.bristle``
+    (static): (``"pairs"``, group index, start, count) for the clearance joints of
+    ``scene.pairs[group]``, then (``"joints"``, 0, start, count) for the lumped chain's
+    joint friction."""
+    out, start = [], 0
+    for g, grp in enumerate(scene.pairs):
+        if isinstance(grp.element, ClearanceJoints) and isinstance(
+            grp.element.friction, DahlFriction
+        ):
+            k = int(np.shape(grp.a)[0])
+            out.append(("pairs", g, start, k))
+            start += k
+    jf = scene.joint_friction
+    if jf is not None and isinstance(jf.law, DahlFriction):
+        k = int(np.shape(jf.joint)[0])
+        out.append(("joints", 0, start, k))
+    return tuple(out)
+
+
+def n_bristles(scene: Scene) -> int:
+    """Length of ``DriveState.bristle`` for ``scene`` (0: None)."""
+    return sum(k for *_, k in bristle_layout(scene))
+
+
+def _zero_bristle(scene: Scene):
+    nb = n_bristles(scene)
+    return jnp.zeros((nb,), scene.q0.dtype) if nb else None
+
+
+def _bristle_of(y: DriveState, scene: Scene, start: int, count: int):
+    """The ``count`` bristle states from ``start`` (zeros where the state carries none, as
+    in the statics, which hold every joint at rest)."""
+    if y.bristle is None:
+        return jnp.zeros((count,), y.q.dtype)
+    return y.bristle[start : start + count]
 
 
 def _rot(phi):
@@ -290,22 +347,29 @@ def _perp(d):
     return jnp.stack([-d[..., 1], d[..., 0]], -1)
 
 
-def _clearance_friction(n, grp, ps: _PairState, v):
+def _clearance_friction(n, grp, ps: _PairState, v, bristle=None):
     """Generalized forces of a clearance joint's contact friction: the tangential force at
     the contact point (where the pin at a touches the hole around b, on the side −u),
-    against the sliding of the pin's surface on the hole's."""
+    against the sliding of the pin's surface on the hole's; and, for a Dahl law, the rate
+    of its states ``bristle`` (else None)."""
     el = grp.element
     r_pin, r_hole = el.radius, el.radius + el.clearance
     t = _perp(ps.u)
     slip = -jnp.sum(ps.dv * t, -1) - v[grp.a, 2] * r_pin + v[grp.b, 2] * r_hole
-    ft = el.friction.force(ps.tension, slip)[:, None] * t
+    if isinstance(el.friction, DahlFriction):
+        ft = el.friction.force(ps.tension, bristle, slip)[:, None] * t
+        rate = el.friction.rate(bristle, slip)
+    else:
+        ft = el.friction.force(ps.tension, slip)[:, None] * t
+        rate = None
     on_a = _scatter(n, grp.a, ps.arm_a - r_pin * ps.u, ft)
-    return on_a + _scatter(n, grp.b, ps.arm_b - r_hole * ps.u, -ft)
+    return on_a + _scatter(n, grp.b, ps.arm_b - r_hole * ps.u, -ft), rate
 
 
-def _joint_friction(n, jf: JointFriction, q, v, tension):
+def _joint_friction(n, jf: JointFriction, q, v, tension, bristle=None):
     """Generalized forces of the lumped chain's joint friction (see :class:`JointFriction`):
-    each moment as a couple ±M/ℓ² · perp(d) at its link's ends."""
+    each moment as a couple ±M/ℓ² · perp(d) at its link's ends; and, for a Dahl law, the
+    rate of its states ``bristle`` (else None)."""
     xa, xj, xb = q[jf.before, :2], q[jf.joint, :2], q[jf.after, :2]
     va, vj, vb = v[jf.before, :2], v[jf.joint, :2], v[jf.after, :2]
     d1, d2 = xj - xa, xb - xj
@@ -313,12 +377,17 @@ def _joint_friction(n, jf: JointFriction, q, v, tension):
     rel_rate = cross2(d2, vb - vj) / l2 - cross2(d1, vj - va) / l1
     load = smooth_ramp(0.5 * (tension[jf.link_before] + tension[jf.link_after]), jf.load_width)
     r = jf.pin_radius
-    moment = jf.law.force(load * r, r * rel_rate)  # on the link after; −moment before
+    if isinstance(jf.law, DahlFriction):  # on the link after; −moment before
+        moment = jf.law.force(load * r, bristle, r * rel_rate)
+        rate = jf.law.rate(bristle, r * rel_rate)
+    else:
+        moment = jf.law.force(load * r, r * rel_rate)
+        rate = None
     f2 = (moment / l2)[:, None] * _perp(d2)
     f1 = (moment / l1)[:, None] * _perp(d1)
     gen = jnp.zeros((n, 2), q.dtype)
     gen = gen.at[jf.after].add(f2).at[jf.joint].add(-f2 - f1).at[jf.before].add(f1)
-    return jnp.concatenate([gen, jnp.zeros((n, 1), q.dtype)], axis=-1)
+    return jnp.concatenate([gen, jnp.zeros((n, 1), q.dtype)], axis=-1), rate
 
 
 def peak_tension(y: DriveState, scene: Scene) -> Array:
@@ -346,17 +415,29 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
     total = jnp.zeros((n, 3), q.dtype)
     tensions = []
     cs = _rot(q[:, 2])
-    for grp in scene.pairs:
+    slots = {(kind, g): (start, k) for kind, g, start, k in bristle_layout(scene)}
+    bristle_rates = []
+    friction = jnp.zeros((n, 3), q.dtype)  # generalized forces of the joints' friction
+    for g, grp in enumerate(scene.pairs):
         ps = _pair(grp, q, v, cs, scene.impact_speed)
         f = ps.tension[:, None] * ps.u
         total = total + _scatter(n, grp.a, ps.arm_a, f) + _scatter(n, grp.b, ps.arm_b, -f)
         if isinstance(grp.element, ClearanceJoints) and grp.element.friction is not None:
-            total = total + _clearance_friction(n, grp, ps, v)
+            z = _bristle_of(y, scene, *slots[("pairs", g)]) if ("pairs", g) in slots else None
+            gen, rate = _clearance_friction(n, grp, ps, v, z)
+            friction = friction + gen
+            if rate is not None:
+                bristle_rates.append(rate)
         if grp.carries_tension:
             tensions.append(ps.tension)
     element_tension = jnp.concatenate(tensions) if tensions else jnp.zeros((0,), q.dtype)
     if scene.joint_friction is not None:
-        total = total + _joint_friction(n, scene.joint_friction, q, v, element_tension)
+        z = _bristle_of(y, scene, *slots[("joints", 0)]) if ("joints", 0) in slots else None
+        gen, rate = _joint_friction(n, scene.joint_friction, q, v, element_tension, z)
+        friction = friction + gen
+        if rate is not None:
+            bristle_rates.append(rate)
+    total = total + friction
 
     if scene.anchors is not None:
         an = scene.anchors
@@ -387,6 +468,8 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
         shoe_normal=None if shoe is None else shoe.normal,
         shoe_force=None if shoe is None else shoe.resultant,
         arm_torque=None if scene.tensioners is None else shoe.arm_torque,
+        bristle_rate=jnp.concatenate(bristle_rates) if bristle_rates else None,
+        joint_friction_power=jnp.sum(friction * v),
     )
 
 
@@ -409,16 +492,18 @@ def rates(t, y: DriveState, scene: Scene, fr: Forces) -> DriveState:
             dtheta.append(spr.speed)
             domega.append(jnp.zeros_like(spr.speed))
     tn = scene.tensioners
-    if tn is None:
-        return DriveState(q=y.v, v=acc, theta=jnp.stack(dtheta), omega=jnp.stack(domega))
-    arm_acc = (fr.arm_torque + tn.spring_torque(y.arm, y.arm_rate)) / tn.inertia
+    arm = arm_acc = None
+    if tn is not None:
+        arm = y.arm_rate
+        arm_acc = (fr.arm_torque + tn.spring_torque(y.arm, y.arm_rate)) / tn.inertia
     return DriveState(
         q=y.v,
         v=acc,
         theta=jnp.stack(dtheta),
         omega=jnp.stack(domega),
-        arm=y.arm_rate,
+        arm=arm,
         arm_rate=arm_acc,
+        bristle=None if y.bristle is None else fr.bristle_rate,
     )
 
 

@@ -33,6 +33,16 @@ class Resolved(NamedTuple):
     allow_float32: bool
 
 
+#: The first step of an adaptive solve [s] when ``dt0`` is not given: 0.1 µs, well inside
+#: the explicit stability limit of every contact in a chain drive (≳ 1 µs), so the first
+#: step never throws the bodies apart; the controller grows it up to ×10 per accepted step
+#: (a few steps more than a good guess). Diffrax's own first-step heuristic can overshoot
+#: by orders of magnitude on a stiff contact scene (a clearance strand: a first step of a
+#: millisecond), and a step that overflows leaves its controller with a NaN step size that
+#: rejects every later step.
+DEFAULT_DT0 = 1e-7
+
+
 class SolveOptions(eqx.Module):
     """How a solve steps, controls its error and differentiates.
 
@@ -41,8 +51,9 @@ class SolveOptions(eqx.Module):
             (``KenCarp*``, ``Sil3``) takes the whole vector field as its implicit term.
         rtol, atol: tolerances of the default PID step-size controller, which measures the
             error in the max norm (a single contact's error is not averaged away).
-        dt0: initial step [s]; with ``stepsize_controller=diffrax.ConstantStepSize()`` the
-            fixed step (scalar, or per member in ``simulate_ensemble``).
+        dt0: initial step [s] (default :data:`DEFAULT_DT0`, 0.1 µs, or the span if
+            shorter); with ``stepsize_controller=diffrax.ConstantStepSize()`` the fixed
+            step (scalar, or per member in ``simulate_ensemble``).
         dt: fixed steps of about ``dt`` [s]: ⌈(t1 − t0)/dt⌉ equal steps, differentiated
             by :class:`~jaxchain.StepResidualsAdjoint` unless ``adjoint`` says otherwise
             (the exact discrete gradient, every step's residuals kept: nothing recomputed,
@@ -152,7 +163,10 @@ class SolveOptions(eqx.Module):
                 pcoeff=0.2,
                 icoeff=0.4,
             )
-            dt0 = None if self.dt0 is None else jnp.asarray(self.dt0, dtype=float)
+            if self.dt0 is None:  # see DEFAULT_DT0
+                dt0 = jnp.minimum(jnp.asarray(DEFAULT_DT0, dtype=float), t1 - t0)
+            else:
+                dt0 = jnp.asarray(self.dt0, dtype=float)
         adjoint = adjoint or diffrax.RecursiveCheckpointAdjoint()
         if self.progress:
             try:

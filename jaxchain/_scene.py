@@ -17,6 +17,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ._contact.base import AbstractContactLaw
+from ._contact.dahl import DahlFriction
 from ._contact.friction import CoulombFriction
 from ._freeform import FreeformProfile
 from ._numerics import is_concrete
@@ -161,15 +162,16 @@ class ClearanceJoints(eqx.Module):
     ℓ exceeds the radial clearance, with ``law`` (e.g. Johnson's conformal law, whose
     ``clearance`` field is the radial clearance). Tension T = law(ℓ − c, ℓ̇) ≥ 0.
 
-    With ``friction``, the contact also carries the tangential force ``friction.force(T,
-    slip)`` at the contact point, against the sliding of the pin's surface (radius
-    ``radius``) on the hole's (radius ``radius + clearance``): the joint's friction
-    moment, about μ·T·radius while it articulates.
+    With ``friction``, the contact also carries a tangential force at the contact point,
+    against the sliding of the pin's surface (radius ``radius``) on the hole's (radius
+    ``radius + clearance``): the joint's friction moment, about μ·T·radius while it
+    articulates. A :class:`~jaxchain.contact.DahlFriction` keeps one pre-sliding state per
+    joint in ``DriveState.bristle``; a :class:`~jaxchain.contact.CoulombFriction` none.
     """
 
     law: AbstractContactLaw
     clearance: Float[Array, ""]
-    friction: CoulombFriction | None = None
+    friction: CoulombFriction | DahlFriction | None = None
     radius: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
 
     def tension(self, length, rate, impact_speed):
@@ -203,7 +205,9 @@ class JointFriction(eqx.Module):
     to ``after[j]``; its pin (radius ``pin_radius``) turns in its bush at the links'
     relative rate Ω = φ̇_after − φ̇_before. The friction moment on the link after is
     M = ``law.force(N·r, r·Ω)`` = −μ·N·r·tanh(r·Ω/v_s), with −M on the link before: the
-    pin/bush contact's Coulomb friction at the sliding speed r·Ω of the pin's surface.
+    pin/bush contact's Coulomb friction at the sliding speed r·Ω of the pin's surface
+    (with a :class:`~jaxchain.contact.DahlFriction` law, M = −μ·N·r·z/x_s, z the joint's
+    pre-sliding state in ``DriveState.bristle``, driven by the sliding speed r·Ω).
     N is the joint's load, the mean tension of the two links (``link_before``,
     ``link_after``: indices into the tension-carrying elements), its positive part
     smoothed over ±``load_width``. Each moment acts as a couple of forces ±M/ℓ across
@@ -216,7 +220,7 @@ class JointFriction(eqx.Module):
     after: Int[Array, " J"]
     link_before: Int[Array, " J"]
     link_after: Int[Array, " J"]
-    law: CoulombFriction
+    law: CoulombFriction | DahlFriction
     pin_radius: Float[Array, ""]
     load_width: Float[Array, ""]
 

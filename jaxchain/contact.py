@@ -9,6 +9,7 @@ from ._contact.base import (
     AbstractHysteresisLaw as AbstractHysteresisLaw,
     hysteresis_restitution as hysteresis_restitution,
 )
+from ._contact.dahl import DahlFriction as DahlFriction
 from ._contact.flores import Flores as Flores
 from ._contact.friction import CoulombFriction as CoulombFriction
 from ._contact.gonthier import Gonthier as Gonthier

@@ -7,7 +7,9 @@ scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
 
 from ._ensemble import stack as stack
 from ._scenes.build import (
+    CLEARANCE_JOINT_FRICTION as CLEARANCE_JOINT_FRICTION,
     JOINT_FRICTION as JOINT_FRICTION,
+    default_joint_friction as default_joint_friction,
     joint_law as joint_law,
     link_stiffness as link_stiffness,
     roller_law as roller_law,

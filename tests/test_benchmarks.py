@@ -301,3 +301,33 @@ def test_design_fidelity_quick(tmp_path):
         a = res["agreement"][law]["members"]
         assert a["points"] == 12 and -1 <= a["correlation"] <= 1
     assert (tmp_path / "design_fidelity.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_clearance_peak_quick(tmp_path):
+    """Every variant runs, the study's impact observer sees the onsets and peaks that
+    EngagementPeaks sees, the decomposition approach = bush approach + rattle holds, and
+    the statistics, comparisons and chart are written."""
+    from benchmarks.clearance_peak import DEFAULT, PAIRS, VARIANTS, main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    by = res["runs"]["1250"]
+    assert set(by) == set(VARIANTS)
+    for row in by.values():
+        assert row["ok"] and row["n"] >= 2
+        assert row["onset_difference_us"] < 1.0
+        lo, hi = row["top_over_peak"]
+        assert 0.95 < lo <= hi <= 1.0 + 1e-9  # step ends never above the parabola tops
+        on = row["records"]["onset"]
+        if on["rattle_n"][0] is not None:
+            got = np.asarray(on["bush_approach"]) + np.asarray(on["rattle_n"])
+            np.testing.assert_allclose(got, on["approach"], atol=1e-9)
+    # only the clearance chain with rollers on their joints has a rattle
+    assert by[DEFAULT]["records"]["onset"]["rattle"][0] is not None
+    assert by["roller fixed to bush"]["records"]["onset"]["rattle"][0] is None
+    v = res["variants"]["1250"]
+    assert len(v["pairs"]) == len(PAIRS)
+    for name in VARIANTS:
+        s = v[name]["statistics"]
+        assert s["ci_low"] <= s["mean"] <= s["ci_high"] and s["max"] >= s["p95"]
+    assert (tmp_path / "clearance_peak.png").stat().st_size > 10_000

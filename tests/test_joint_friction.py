@@ -45,7 +45,7 @@ def test_lumped_joint_moment_is_coulomb_closed_form():
     for omega in (0.5, -3.0, 80.0):  # rad/s: inside and far outside the creep band r·Ω < v_s
         arm = q[2, :2]
         v = jnp.zeros((3, 3)).at[2, :2].set(omega * jnp.array([-arm[1], arm[0]]))
-        g = _joint_friction(3, jf, q, v, jnp.array([tension, tension]))
+        g, _ = _joint_friction(3, jf, q, v, jnp.array([tension, tension]))
         moment_after = float(arm[0] * g[2, 1] - arm[1] * g[2, 0])
         want = -0.1 * tension * r * math.tanh(r * omega / 2e-3)
         np.testing.assert_allclose(moment_after, want, rtol=1e-12)
@@ -63,6 +63,16 @@ def _friction_part(scene, y):
     return forces(0.0, y, scene).body - forces(0.0, y, _frictionless(scene)).body
 
 
+@eqx.filter_jit
+def _sliding_bristle(scene, y):
+    """The pre-sliding states a long slide at the joints' present slip speeds leaves
+    (the zero of ż at those speeds)."""
+    law = jc.scenes.CLEARANCE_JOINT_FRICTION
+    probe = forces(0.0, y._replace(bristle=jnp.zeros_like(y.bristle)), scene).bristle_rate
+    slip = probe  # ż at z = 0 is the slip speed itself
+    return law.presliding * slip / jnp.sqrt(slip**2 + law.creep_velocity**2)
+
+
 def _frictionless(scene):
     if scene.fidelity == "lumped":
         return eqx.tree_at(lambda s: s.joint_friction, scene, None, is_leaf=lambda x: x is None)
@@ -76,14 +86,19 @@ def _frictionless(scene):
 @pytest.mark.parametrize("fidelity", ["lumped", "clearance"])
 def test_joint_friction_dissipates_and_balances(fidelity):
     """At random velocities the joints' friction takes power (Σ F·v < 0) and, as internal
-    forces, adds no net force (and, lumped, no net moment) to the chain."""
+    forces, adds no net force (and, lumped, no net moment) to the chain. The clearance
+    chain's default friction (Dahl) acts through its pre-sliding states: set here to
+    where sliding at those velocities drives them (z = x_s·v_t/√(v_t² + ε²))."""
     sc = jc.scenes.engagement("08B", 18, n_entry=2, fidelity=fidelity, settle=False)
     y = initial_state(sc)
+    assert (y.bristle is None) == (fidelity == "lumped")
     rng = np.random.default_rng(0)
     for _ in range(3):
         v = jnp.asarray(rng.normal(scale=0.5, size=y.v.shape))
         v = v.at[:, 2].multiply(100.0)  # body rates ~50 rad/s (rollers' spin included)
         yv = y._replace(v=v)
+        if y.bristle is not None:
+            yv = yv._replace(bristle=_sliding_bristle(sc, yv))
         g = _friction_part(sc, yv)
         power = float(jnp.sum(g * v))
         assert power < 0, power
@@ -117,7 +132,7 @@ def test_clearance_joint_friction_is_coulomb_at_the_contact():
         ps = _pair(grp, q, v, _rot(q[:, 2]), 1.0)
         fn = float(ps.tension[0])
         assert fn > 100.0
-        g = _clearance_friction(2, grp, ps, v)
+        g, _ = _clearance_friction(2, grp, ps, v)
         want = -0.1 * fn * r * math.tanh(r * omega / 2e-3)
         np.testing.assert_allclose(float(g[0, 2]), want, rtol=1e-12)
         # equal and opposite tangential forces; the hole's at its wall, radius r + c

@@ -86,7 +86,11 @@ def test_fixed_steps_from_dt():
     assert r.max_steps == 25 and np.isclose(r.dt0, 4e-6)
     assert isinstance(r.adjoint, jc.StepResidualsAdjoint)  # every step's residuals kept
     adaptive = jc.SolveOptions().resolve(0.0, 1e-4)
-    assert isinstance(adaptive.controller, diffrax.PIDController) and adaptive.dt0 is None
+    # adaptive: the first step 0.1 µs (inside every contact's explicit stability limit), or
+    # the span where shorter
+    assert isinstance(adaptive.controller, diffrax.PIDController)
+    assert float(adaptive.dt0) == jc.DEFAULT_DT0 == 1e-7
+    assert float(jc.SolveOptions().resolve(0.0, 3e-8).dt0) == 3e-8
 
 
 def test_time_span_and_save_times_are_checked():

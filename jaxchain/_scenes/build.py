@@ -22,6 +22,7 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
+from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._contact.johnson import JohnsonCylinder
 from .._materials import STEEL, Material, effective_modulus
@@ -45,6 +46,8 @@ __all__ = [
     "roller_law",
     "link_stiffness",
     "JOINT_FRICTION",
+    "CLEARANCE_JOINT_FRICTION",
+    "default_joint_friction",
 ]
 
 #: Friction in the chain's joints (pin/bush, bush/roller): lubricated steel on steel,
@@ -52,6 +55,23 @@ __all__ = [
 #: sliding speed of 2 mm/s at the pin's surface (a joint articulating at 1 rad/s slides
 #: at about 2 mm/s; the moment reaches 76 % of μ·N·r there).
 JOINT_FRICTION = CoulombFriction(coefficient=0.1, slip_velocity=2e-3)
+
+#: The same friction in the clearance chain's joint contacts (pin/bush, bush/roller), with
+#: a pre-sliding state (Dahl): μ = 0.1, pre-sliding displacement 5 µm at the contact. A
+#: velocity-regularized law there acts on a roller of about a gram as a damper of time
+#: constant ~15 ns (m·v_s/(μ·N) at 1 kN), which alone would set an explicit solver's step;
+#: the pre-sliding state bounds that stiffness by the length x_s instead
+#: (``benchmarks/joint_friction.py``).
+CLEARANCE_JOINT_FRICTION = DahlFriction(
+    coefficient=0.1, presliding=5e-6, creep_velocity=1e-4, damping=5e-6
+)
+
+
+def default_joint_friction(fidelity: str) -> CoulombFriction | DahlFriction:
+    """The joint friction a builder uses by default (``joint_friction="default"``):
+    :data:`JOINT_FRICTION` in the lumped chain, :data:`CLEARANCE_JOINT_FRICTION` in the
+    clearance chain."""
+    return CLEARANCE_JOINT_FRICTION if fidelity == "clearance" else JOINT_FRICTION
 
 
 class ChainBodies(NamedTuple):
@@ -177,15 +197,18 @@ def chain_bodies(
     damping_ratio: float = 0.05,
     pin_law: AbstractContactLaw | None = None,
     bush_law: AbstractContactLaw | None = None,
-    joint_friction: CoulombFriction | None = None,
+    joint_friction: CoulombFriction | DahlFriction | str | None = None,
 ) -> ChainBodies:
     """Bodies and force elements of a chain whose roller centres are ``rollers`` (n, 2),
     ordered along the chain, moving at ``velocities`` (n, 2). See the module docstring.
 
-    ``joint_friction``: Coulomb friction in the joints (None: frictionless joints). The
-    lumped chain carries it as a friction moment between consecutive links
-    (:class:`~jaxchain._scene.JointFriction`, pin radius d2/2); the clearance chain at
-    the contacts of its pin/bush and bush/roller joints."""
+    ``joint_friction``: friction in the joints (None: frictionless joints; ``"default"``:
+    :func:`default_joint_friction` of the fidelity). The lumped chain carries it as a
+    friction moment between consecutive links (:class:`~jaxchain._scene.JointFriction`,
+    pin radius d2/2); the clearance chain at the contacts of its pin/bush and bush/roller
+    joints."""
+    if isinstance(joint_friction, str):
+        joint_friction = default_joint_friction(fidelity)
     rollers = np.asarray(rollers, dtype=float)
     velocities = np.asarray(velocities, dtype=float)
     n = len(rollers)
@@ -303,7 +326,7 @@ def chain_bodies(
 
 
 def _lumped_joint_friction(
-    chain: ChainSpec, n: int, closed: bool, law: CoulombFriction | None
+    chain: ChainSpec, n: int, closed: bool, law: CoulombFriction | DahlFriction | None
 ) -> JointFriction | None:
     """Joint friction of a lumped chain of ``n`` rollers: a joint at every roller between
     two links (link e runs from roller e to roller e + 1)."""

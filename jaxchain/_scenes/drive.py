@@ -12,11 +12,12 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
+from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._freeform import FreeformProfile
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
-from .build import JOINT_FRICTION, assemble, chain_bodies, roller_law
+from .build import assemble, chain_bodies, roller_law
 from .common import (
     as_gravity,
     check_below_strength,
@@ -53,7 +54,7 @@ def drive(
     profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
     restitution: float = 0.7,
     friction: CoulombFriction | None = None,
-    joint_friction: CoulombFriction | None = JOINT_FRICTION,
+    joint_friction: CoulombFriction | DahlFriction | str | None = "default",
     driven_inertia: float | Sequence[float] | None = None,
     load_ramp: float | None = None,
     impact_speed: float = 1.0,
@@ -112,7 +113,8 @@ def drive(
             in [1, N − 1] (default N − 1; needs ``centres``).
         centre_distance: two-sprocket drive: C [m] (adjusted by less than a pitch to close).
         n_links: even number of links.
-        speed_rpm: driver speed [rpm], > 0.
+        speed_rpm: driver speed [rpm], > 0; every scene built with the defaults runs with
+            ``simulate``'s defaults from 100 to 3000 rpm, in both fidelities.
         load_torque: resisting torque [N·m], ≥ 0, on every driven sprocket (a scalar) or
             one per driven sprocket.
         pretension: chain tension at rest [N], ≥ 0.
@@ -127,8 +129,10 @@ def drive(
         restitution: coefficient of restitution of every contact at ``impact_speed``.
         friction: roller/tooth friction (None: frictionless).
         joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
-            clearance fidelity); default lubricated steel on steel, μ = 0.1
-            (``jc.scenes.JOINT_FRICTION``); None: frictionless joints. It is what damps
+            clearance fidelity); ``"default"``: lubricated steel on steel, μ = 0.1
+            (``jc.scenes.JOINT_FRICTION`` in the lumped chain,
+            ``jc.scenes.CLEARANCE_JOINT_FRICTION``, with a pre-sliding state, in the
+            clearance chain); None: frictionless joints. It is what damps
             the spans' transverse vibration: without it the spans' mean tension
             climbs to several times the static (``python -m
             benchmarks.tension_climb``).
@@ -321,7 +325,7 @@ def drive(
             omega1,
             angle0=lay.theta[0],
             inertia=disc_inertia(chain, profiles[0]),
-            contact_slots=contact_slots(lay.wrap[0], lay.n_links),
+            contact_slots=contact_slots(lay.wrap[0], lay.n_links, profiles[0]),
         ),
         Sprocket(
             profiles[1],
@@ -332,7 +336,7 @@ def drive(
             angle0=lay.theta[1],
             load_ramp=load_ramp,
             driven=True,
-            contact_slots=contact_slots(lay.wrap[1], lay.n_links),
+            contact_slots=contact_slots(lay.wrap[1], lay.n_links, profiles[1]),
         ),
     )
     scene = assemble(

@@ -11,11 +11,12 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
+from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._freeform import FreeformProfile
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Anchors, Scene, Sprocket
-from .build import JOINT_FRICTION, assemble, chain_bodies, link_stiffness, roller_law
+from .build import assemble, chain_bodies, link_stiffness, roller_law
 from .common import (
     as_gravity,
     check_below_strength,
@@ -47,7 +48,7 @@ def engagement(
     profile: ToothProfile | None = None,
     restitution: float = 0.7,
     friction: CoulombFriction | None = None,
-    joint_friction: CoulombFriction | None = JOINT_FRICTION,
+    joint_friction: CoulombFriction | DahlFriction | str | None = "default",
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,
@@ -175,7 +176,7 @@ def engagement(
         omega,
         angle0=lay.theta,
         inertia=disc_inertia(sprocket_chain, profile),
-        contact_slots=contact_slots(wrap, len(rollers)),
+        contact_slots=contact_slots(wrap, len(rollers), profile),
     )
     scene = assemble(
         bodies,

@@ -11,6 +11,7 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
+from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._freeform import FreeformProfile
 from .._profile import MAX_TEETH, ToothProfile
@@ -85,7 +86,7 @@ def loop_drive(
     profiles,
     restitution: float,
     friction: CoulombFriction | None,
-    joint_friction: CoulombFriction | None,
+    joint_friction: CoulombFriction | DahlFriction | str | None,
     driven_inertia,
     load_ramp: float | None,
     impact_speed: float,
@@ -236,7 +237,7 @@ def loop_drive(
             angle0=lay.theta[real[k]],
             load_ramp=load_ramp if k else 0.0,
             driven=k > 0,
-            contact_slots=contact_slots(lay.wrap[real[k]], lay.n_links),
+            contact_slots=contact_slots(lay.wrap[real[k]], lay.n_links, profiles[k]),
             take_up_vector=(lay.take_up_vector if k == m and tensioner is None else np.zeros(2)),
         )
         for k in range(n)

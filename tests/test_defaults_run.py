@@ -1,0 +1,38 @@
+"""Every scene a builder makes with its defaults runs to the end with ``simulate``'s
+defaults, in both fidelities, at both ends of the speed range (100 and 3000 rpm), over
+two tooth periods of the driver; and so does a drive over three sprockets."""
+
+import pytest
+
+import jaxchain as jc
+
+pytestmark = pytest.mark.slow  # each clearance solve compiles for ~1 min
+
+
+def _periods(scene, rpm, n=2.0):
+    """``n`` tooth periods of the driver [s]."""
+    return n * 60.0 / (int(scene.sprockets[0].profile.teeth) * rpm)
+
+
+@pytest.mark.parametrize("builder", ["engagement", "drive"])
+@pytest.mark.parametrize("fidelity", ["lumped", "clearance"])
+@pytest.mark.parametrize("rpm", [100.0, 3000.0])
+def test_builder_defaults_run(builder, fidelity, rpm):
+    sc = getattr(jc.scenes, builder)(speed_rpm=rpm, fidelity=fidelity)
+    sol = jc.simulate(sc, _periods(sc, rpm))
+    assert sol.ok and float(sol.peak_contact_force) > 0, sol.message
+
+
+@pytest.mark.parametrize("fidelity", ["lumped", "clearance"])
+def test_three_sprocket_drive_defaults_run(fidelity):
+    """The timing drive's layout (crank 21, cams 42/42) with the builder's default contact
+    slots: the slots cover every roller within reach of the large cams."""
+    sc = jc.scenes.drive(
+        "06B",
+        teeth=(21, 42, 42),
+        centres=((0.0, 0.0), (0.05, 0.25), (-0.1, 0.25)),
+        load_torque=(5.0, 5.0),
+        fidelity=fidelity,
+    )
+    sol = jc.simulate(sc, _periods(sc, 1000.0))
+    assert sol.ok, sol.message
