@@ -1,4 +1,5 @@
-"""The command line every study shares: ``--quick`` (a short run) and ``--out``."""
+"""What every study shares: the command line (``--quick``, a short run, and ``--out``), the
+machine it ran on, and the result file's header."""
 
 from __future__ import annotations
 
@@ -6,12 +7,47 @@ import argparse
 import datetime
 import json
 import os
+import platform
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 OUT = Path(__file__).parent / "results"
+
+
+def loadavg() -> list[float] | None:
+    """1/5/15-minute load averages (None where the OS has none): the machine is shared."""
+    return list(os.getloadavg()) if hasattr(os, "getloadavg") else None
+
+
+def machine_info() -> dict:
+    """The machine and the versions a result was measured with."""
+    import diffrax
+    import equinox as eqx
+    import jax
+    import numpy as np
+    import scipy
+
+    import jaxchain as jc
+
+    return {
+        "platform": platform.platform(),
+        "processor": platform.processor(),
+        "cpu_count": os.cpu_count(),
+        "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "loadavg_at_start": loadavg(),
+        "python": platform.python_version(),
+        "jax_backend": jax.default_backend(),
+        "versions": {
+            "jax": jax.__version__,
+            "diffrax": diffrax.__version__,
+            "equinox": eqx.__version__,
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "jaxchain": jc.__version__,
+        },
+    }
 
 
 def parser(doc: str | None, quick_help: str = "small, fast smoke run") -> argparse.ArgumentParser:
@@ -48,8 +84,6 @@ def shown(path: Path) -> str:
 def header(study: str, argv=None) -> dict:
     """A result file's opening: the command that reproduces it (``argv``: the study's
     arguments, default the command line's), the date, and the machine (at the start)."""
-    from benchmarks.work_precision import machine_info  # (work_precision imports this module)
-
     given = sys.argv[1:] if argv is None else argv
     return {
         "command": " ".join([f"python -m benchmarks.{study}", *given]),
@@ -63,8 +97,6 @@ def finish(
 ) -> dict:
     """End a study: its wall time since ``start`` and the load average at the end into
     ``results``, ``out/<name>.json`` and the chart ``out/<name>.png`` written, and said."""
-    from benchmarks.work_precision import loadavg  # (work_precision imports this module)
-
     results["total_s"] = time.perf_counter() - start
     results["machine"]["loadavg_at_end"] = loadavg()
     (out / f"{name}.json").write_text(json.dumps(results, indent=1))

@@ -47,8 +47,12 @@ jax.config.update("jax_enable_compilation_cache", False)
 
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, parse, parser  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    finish,
+    machine_info,  # noqa: E402
+    parse,
+    parser,
+)
 
 CHAIN = "06B"
 RPM = 3000.0

@@ -48,8 +48,12 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
-from benchmarks.work_precision import loadavg  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    FRICTIONLESS,
+    loadavg,  # noqa: E402
+    parse,
+    parser,
+)
 
 Z = 18
 RPM = 1000.0
@@ -421,7 +425,8 @@ def _compile_row(fid, links, t1, kw):
     grad = eqx.filter_jit(jax.grad(objective))
     r0 = sc.sprockets[0].profile.seating_radius
     # new values, same structure: a heavier load, a new seating radius
-    sc2 = eqx.tree_at(lambda s: s.sprockets[1].load_torque, sc, sc.sprockets[1].load_torque * 2)
+    heavier = sc.sprockets[1].load_torque * 2
+    sc2 = eqx.tree_at(lambda s: s.sprockets[1].torque_load.value, sc, heavier)
     row = {"fidelity": fid, "links": links, "bodies": sc.n_bodies}
     for name, call, again in (
         ("forward", lambda: fwd(sc), lambda: fwd(sc2)),

@@ -35,9 +35,14 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, finish, parse, parser  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    FRICTIONLESS,
+    finish,
+    machine_info,  # noqa: E402
+    parse,
+    parser,
+)
 from benchmarks.dynamics import vf_time  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
 
 CHAIN = "08B"
 K = 3

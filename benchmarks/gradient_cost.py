@@ -40,8 +40,12 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, parse, parser  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    finish,
+    machine_info,  # noqa: E402
+    parse,
+    parser,
+)
 from jaxchain.design import DesignSpace, ProfileObjective  # noqa: E402
 
 CHAIN = jc.ChainSpec.iso606("08B")

@@ -70,8 +70,12 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks import gradient_cost  # noqa: E402
-from benchmarks._cli import finish, parse, parser  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    finish,
+    machine_info,  # noqa: E402
+    parse,
+    parser,
+)
 
 LEARNING_RATE = 1.0  # Adam's step in u (the sigmoid coordinate of each box)
 SIGMA0 = 1.0  # CMA-ES's initial step size in u

@@ -266,7 +266,7 @@ def main(argv=None):
         for r in results["configs"]
     )
     results["machine"]["uptime_end"] = uptime()
-    from benchmarks.work_precision import loadavg
+    from benchmarks._cli import loadavg
 
     results["machine"]["loadavg"] = loadavg()
     return finish(results, args.out, NAME, chart, t_start)

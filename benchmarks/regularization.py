@@ -81,10 +81,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
+from benchmarks._cli import FRICTIONLESS, loadavg, machine_info, parse, parser  # noqa: E402
 from benchmarks.work_precision import (  # noqa: E402
-    loadavg,
-    machine_info,
     reference,
     tooth_period,
 )

@@ -55,14 +55,18 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, parse, parser  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    finish,
+    machine_info,  # noqa: E402
+    parse,
+    parser,
+)
 from benchmarks.work_precision import (  # noqa: E402
     ATOL_PER_RTOL,
     SOLVERS,
     STYLE,
     best_table,
     engagement_scene,
-    machine_info,
     more_repeats,
     reference,
     sweep,

@@ -37,8 +37,12 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, parse, parser  # noqa: E402
-from benchmarks.work_precision import machine_info  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    finish,
+    machine_info,  # noqa: E402
+    parse,
+    parser,
+)
 
 SCENE = dict(chain="10A", teeth=(13, 26), n_links=60, load_torque=30.0, pretension=300.0)
 NOMINAL_RPM = 600.0

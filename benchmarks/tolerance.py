@@ -402,7 +402,7 @@ def _numbers(text: str, option: str) -> tuple[float, ...]:
 
 
 def main(argv=None) -> dict:
-    from benchmarks.work_precision import machine_info
+    from benchmarks._cli import machine_info
     from optimize.run import write_atomic
 
     ap = parser(__doc__, "one δ (20 µm), 2 samples, the worst operating point")

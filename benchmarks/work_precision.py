@@ -36,8 +36,6 @@ skipped once one run exceeds a time budget (recorded as ``skipped``).
 from __future__ import annotations
 
 import math
-import os
-import platform
 import time
 
 import jax
@@ -45,11 +43,16 @@ import jax
 jax.config.update("jax_enable_x64", True)
 
 import diffrax  # noqa: E402
-import equinox as eqx  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, finish, parse, parser  # noqa: E402
+from benchmarks._cli import (  # noqa: E402
+    FRICTIONLESS,
+    finish,
+    machine_info,
+    parse,
+    parser,
+)
 
 RPM = 1000.0
 ATOL_PER_RTOL = 1e-3  # atol = 1e-3·rtol: positions ~5e-2 m, speeds ~1 m/s
@@ -337,33 +340,6 @@ def best_table(rows, levels, err_key="peak_rel_err"):
             }
         )
     return table
-
-
-def loadavg() -> list[float] | None:
-    """1/5/15-minute load averages (None where the OS has none): the machine is shared."""
-    return list(os.getloadavg()) if hasattr(os, "getloadavg") else None
-
-
-def machine_info() -> dict:
-    import scipy
-
-    return {
-        "platform": platform.platform(),
-        "processor": platform.processor(),
-        "cpu_count": os.cpu_count(),
-        "cpu_affinity": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
-        "loadavg_at_start": loadavg(),
-        "python": platform.python_version(),
-        "jax_backend": jax.default_backend(),
-        "versions": {
-            "jax": jax.__version__,
-            "diffrax": diffrax.__version__,
-            "equinox": eqx.__version__,
-            "numpy": np.__version__,
-            "scipy": scipy.__version__,
-            "jaxchain": jc.__version__,
-        },
-    }
 
 
 # ----------------------------------------------------------------------------- study

@@ -10,6 +10,7 @@ from . import (
     contact as contact,
     design as design,
     distributed as distributed,
+    loads as loads,
     observers as observers,
     scenes as scenes,
 )

@@ -16,7 +16,6 @@ from jaxtyping import Array, ArrayLike, Float
 
 from . import _checks as checks, _distributed as dist
 from ._chain import ChainSpec
-from ._ensemble import stack
 from ._freeform import FreeformProfile
 from ._numerics import is_concrete
 from ._observers import (
@@ -34,6 +33,7 @@ from ._result import Result, raise_if_failed
 from ._scene import Scene
 from ._scenes.statics import resettle, statics_jacobian
 from ._solve import check_horizon, solve, strong_scene
+from ._stack import stack
 
 __all__ = [
     "PARAMETERS",

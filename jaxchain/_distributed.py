@@ -25,6 +25,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from ._scene import Scene
+from ._stack import stack, take
 
 __all__ = [
     "initialize",
@@ -271,7 +272,6 @@ class LocalMembers(eqx.Module):
 def local_members(n_members: int, build: Callable[[int], Scene]) -> LocalMembers:
     """This process's share of an ``n_members`` ensemble: ``build(i)`` is called for the
     members ``i`` this process holds only (one process: all of them), each once."""
-    from ._ensemble import stack
 
     if not callable(build):
         raise TypeError(f"build must be a function index -> Scene, got {type(build).__name__}")
@@ -286,7 +286,6 @@ def local_members(n_members: int, build: Callable[[int], Scene]) -> LocalMembers
 def share(scenes: Scene | Sequence[Scene] | LocalMembers, mesh: Mesh) -> tuple[Scene, Split]:
     """This process's rows of ``scenes`` (every member's scenes, or a share already) for
     ``mesh`` spanning processes, and the split."""
-    from ._ensemble import _take, stack
 
     if isinstance(scenes, LocalMembers):
         sp = scenes.split
@@ -304,7 +303,7 @@ def share(scenes: Scene | Sequence[Scene] | LocalMembers, mesh: Mesh) -> tuple[S
                 f"(jc.scenes.stack); got a scene with q0 of shape {np.shape(scenes.q0)}"
             )
         sp = split(int(np.shape(scenes.q0)[0]))
-        local = _take(scenes, np.asarray(sp.slots))
+        local = take(scenes, np.asarray(sp.slots))
     else:
         scenes = list(scenes)
         sp = split(len(scenes))

@@ -303,13 +303,13 @@ def contact_slots_ok(y: DriveState, scene: Scene) -> Array:
     ok = jnp.asarray(True)
     slots = _contact_slots(scene, xr.shape[0])
     if slots is not None:
-        tips = jnp.stack([s.profile.tip_diameter for s in scene.sprockets])
+        reach = jnp.stack([s.profile.reach_radius for s in scene.sprockets])
         centres = jnp.stack([s.centre for s in scene.sprockets])
 
-        def one(tip, centre):
-            return _nearest(xr - centre, slots)[1] > (tip / 2 + 1.05 * r) ** 2
+        def one(reach, centre):
+            return _nearest(xr - centre, slots)[1] > reach**2
 
-        ok = jnp.all(jax.vmap(one)(tips, centres))
+        ok = jnp.all(jax.vmap(one)(reach, centres))
     sh = scene.shoes
     if sh is not None and sh.slots is not None and sh.slots < xr.shape[0]:
         turn, pivot, _ = shoe_frames(y, scene)
@@ -487,7 +487,8 @@ def rates(t, y: DriveState, scene: Scene, fr: Forces) -> DriveState:
     for k, spr in enumerate(scene.sprockets):
         if spr.driven:
             dtheta.append(y.omega[k])
-            domega.append((fr.sprocket_torque[k] - spr.load(t)) / spr.inertia)
+            load = spr.load(t, y.theta[k], y.omega[k])
+            domega.append((fr.sprocket_torque[k] - load) / spr.inertia)
         else:  # driver: prescribed constant speed
             dtheta.append(spr.speed)
             domega.append(jnp.zeros_like(spr.speed))

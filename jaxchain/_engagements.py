@@ -232,8 +232,7 @@ class EngagementPeaks(AbstractStepObserver):
         force, distance, omega = jax.vmap(self._sample, in_axes=(0, None))(ys, scene)
         teeth = np.asarray([s.profile.teeth for s in scene.sprockets], dtype=float)
         period = 2 * jnp.pi / (teeth * jnp.maximum(jnp.abs(omega), 1e-12))  # (n, S)
-        reach = jnp.stack([s.profile.tip_diameter / 2 for s in scene.sprockets])
-        reach = reach + 1.05 * scene.roller_radius
+        reach = jnp.stack([s.profile.reach_radius for s in scene.sprockets])
         return self._advance(state, t0, t1, force, distance, period, reach)
 
     # -- the event logic on sampled forces (what init and step run on the drive's) -------

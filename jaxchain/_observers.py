@@ -43,6 +43,7 @@ __all__ = [
     "PeakRecord",
     "SoftPeak",
     "SampledSoftPeak",
+    "LoadWork",
     "Health",
     "window_weight",
     "EXP_CAP",
@@ -78,6 +79,23 @@ class AbstractIntegralObserver(AbstractObserver):
     @abc.abstractmethod
     def integrand(self, t, y: DriveState, scene: Scene, forces: Forces) -> Array:
         """The integrand at one instant (any fixed shape)."""
+
+
+class LoadWork(AbstractIntegralObserver):
+    """The work each sprocket's load has taken out of the drive since the start [J], (S,):
+    ∫ τ_load·ω dt, τ_load the load's torque against counter-clockwise rotation and ω the
+    sprocket's speed (0 for the driver, which carries no load). With it the energy balance
+    closes: the stored energy (:func:`~jaxchain.energy`) changes by the driver's work minus
+    this, minus what damping and friction dissipate."""
+
+    def integrand(self, t, y, scene, forces):
+        del forces
+        return jnp.stack(
+            [s.load(t, y.theta[k], y.omega[k]) * y.omega[k] for k, s in enumerate(scene.sprockets)]
+        )
+
+    def value(self, state, t0, t1):
+        return state
 
 
 # ---------------------------------------------------------------------------- peak record

@@ -204,7 +204,7 @@ def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None):
         if scene is not None and k < len(scene.sprockets):
             spr = scene.sprockets[k]
             role = "driven" if spr.driven else "driver"
-            idle = len(scene.sprockets) > 2 and not np.any(np.asarray(spr.load_torque))
+            idle = len(scene.sprockets) > 2 and spr.torque_load.is_zero()
             if spr.driven and idle:
                 role = "idler"
             label += f" ({role}, z = {spr.profile.teeth})"

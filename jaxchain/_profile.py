@@ -87,6 +87,9 @@ class ProfileGeometry(NamedTuple):
     half_angle: Float[Array, ""]  # π / z
 
 
+REACH_MARGIN = 1.05  # roller radii beyond the tip circle a roller may still touch
+
+
 class SprocketDerived:
     """What every tooth profile derives alike from its ``teeth``, ``pitch``,
     ``roller_diameter`` and ``seating_radius`` (a field-less mixin of the profile
@@ -104,6 +107,13 @@ class SprocketDerived:
     @property
     def roller_radius(self) -> Array:
         return self.roller_diameter / 2
+
+    @property
+    def reach_radius(self) -> Array:
+        """The farthest from the axis a roller's centre can be and still touch a tooth [m]:
+        the tip radius plus 1.05 roller radii (the 5 % covers the contact onset's
+        regularization). Contact slots, their check and the meshing events read it."""
+        return self.tip_diameter / 2 + REACH_MARGIN * self.roller_radius
 
     @property
     def seat_clearance(self) -> Array:

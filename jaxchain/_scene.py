@@ -20,6 +20,7 @@ from ._contact.base import AbstractContactLaw
 from ._contact.dahl import DahlFriction
 from ._contact.friction import CoulombFriction
 from ._freeform import FreeformProfile
+from ._loads import AbstractLoad, as_load
 from ._numerics import is_concrete
 from ._profile import ToothProfile
 
@@ -45,12 +46,16 @@ class Sprocket(eqx.Module):
         speed: driver: prescribed angular speed [rad/s] (positive counter-clockwise);
             driven: initial angular speed.
         inertia: polar moment of inertia [kg·m²] (driven sprockets).
-        load_torque: torque resisting the rotation [N·m] (driven sprockets; positive
-            opposes positive speed).
+        torque_load: the load on its shaft (driven sprockets), a
+            :class:`jc.loads.AbstractLoad <jaxchain.loads.AbstractLoad>` resisting the
+            sprocket's rotation in its running direction ``sense``; built from the
+            arguments ``load_torque`` (a number [N·m] or a load) and ``load_ramp`` (a
+            number's smooth rise from 0 over this time [s]; 0: applied at once).
         angle0: rotation angle at t = 0 [rad]: gap k centred at angle0 + 2πk/z.
-        load_ramp: the load torque rises smoothly (C¹) from 0 to ``load_torque`` over
-            this time [s] (0: applied at once).
         driven: False for a driver (speed prescribed), True for a free sprocket
+            (static).
+        sense: +1 if the sprocket runs counter-clockwise, −1 clockwise (a sprocket the
+            chain wraps clockwise): the direction its load's angle and speed count in
             (static).
         contact_slots: how many rollers (the nearest to the axis) are checked against
             this sprocket; None: all. Only rollers within the tip radius plus a roller
@@ -67,12 +72,12 @@ class Sprocket(eqx.Module):
     centre: Float[Array, 2]
     speed: Float[Array, ""]
     inertia: Float[Array, ""]
-    load_torque: Float[Array, ""]
+    torque_load: AbstractLoad
     angle0: Float[Array, ""]
-    load_ramp: Float[Array, ""]
     driven: bool = eqx.field(static=True)
     contact_slots: int | None = eqx.field(static=True)
     take_up_vector: Float[Array, 2] | None
+    sense: int = eqx.field(static=True)
 
     def __init__(
         self,
@@ -87,25 +92,50 @@ class Sprocket(eqx.Module):
         driven=False,
         contact_slots=None,
         take_up_vector=None,
+        sense=1,
     ):
         self.profile = profile
         self.centre = jnp.asarray(centre, dtype=float)
         self.speed = jnp.asarray(speed, dtype=float)
         self.inertia = jnp.asarray(inertia, dtype=float)
-        self.load_torque = jnp.asarray(load_torque, dtype=float)
+        if isinstance(load_torque, AbstractLoad) and not (
+            is_concrete(load_ramp) and not np.any(np.asarray(load_ramp))
+        ):
+            raise ValueError(
+                "Sprocket: load_ramp applies to a number; give a load object "
+                "(load_torque=jc.loads....) with its own time dependence, load_ramp=0"
+            )
+        if is_concrete(load_ramp) and np.any(np.asarray(load_ramp) < 0):
+            raise ValueError(f"Sprocket: load_ramp must be >= 0 s, got {load_ramp}")
+        self.torque_load = as_load(load_torque, "Sprocket: load_torque", ramp=load_ramp)
         self.angle0 = jnp.asarray(angle0, dtype=float)
-        self.load_ramp = jnp.asarray(load_ramp, dtype=float)
+        if sense not in (1, -1):
+            raise ValueError(f"Sprocket: sense must be +1 or -1, got {sense!r}")
+        self.sense = int(sense)
         self.driven = bool(driven)
         self.contact_slots = None if contact_slots is None else int(contact_slots)
         self.take_up_vector = (
             None if take_up_vector is None else jnp.asarray(take_up_vector, dtype=float)
         )
 
-    def load(self, t):
-        """Load torque at time t [N·m] (smoothstep ramp over ``load_ramp``)."""
-        ramp = self.load_ramp
-        x = jnp.clip(t / jnp.where(ramp > 0, ramp, 1.0), 0.0, 1.0)
-        return self.load_torque * jnp.where(ramp > 0, x * x * (3 - 2 * x), 1.0)
+    def load(self, t, theta=None, omega=None):
+        """The load's torque at time ``t`` [s], counted positive against counter-clockwise
+        rotation [N·m], with the sprocket at angle ``theta`` [rad] turning at ``omega``
+        [rad/s] (world sense; default its start: ``angle0``, ``speed``)."""
+        theta = self.angle0 if theta is None else theta
+        omega = self.speed if omega is None else omega
+        s = self.sense
+        return s * self.torque_load.torque(t, s * (theta - self.angle0), s * omega)
+
+    @property
+    def load_torque(self) -> Array:
+        """The load's mean torque, positive against counter-clockwise rotation [N·m]."""
+        return self.sense * self.torque_load.mean_torque
+
+    @property
+    def load_ramp(self) -> Array:
+        """The rise time of a ramped load [s]; 0 for any other load."""
+        return getattr(self.torque_load, "duration", jnp.zeros(()))
 
     def __check_init__(self):
         if not isinstance(self.profile, (ToothProfile, FreeformProfile)):
@@ -127,15 +157,13 @@ class Sprocket(eqx.Module):
             )
         if not is_concrete(self):
             return
-        for name in ("centre", "speed", "inertia", "load_torque", "angle0", "load_ramp"):
+        for name in ("centre", "speed", "inertia", "angle0"):
             if not np.all(np.isfinite(np.asarray(getattr(self, name)))):
                 raise ValueError(f"Sprocket: {name} must be finite, got {getattr(self, name)}")
         if self.take_up_vector is not None and not np.all(
             np.isfinite(np.asarray(self.take_up_vector))
         ):
             raise ValueError(f"Sprocket: take_up_vector must be finite, got {self.take_up_vector}")
-        if np.any(np.asarray(self.load_ramp) < 0):
-            raise ValueError(f"Sprocket: load_ramp must be >= 0 s, got {self.load_ramp}")
         if self.driven and not np.all(np.asarray(self.inertia) > 0):
             raise ValueError(f"a driven sprocket needs inertia > 0 kg·m², got {self.inertia}")
 

@@ -8,6 +8,7 @@ sampled = jc.observers.SampledSoftPeak(t_start, rise, temperature, reference, sa
 lines = jc.observers.OrderSpectrum(range(64), 0.2, 2.2, signal="torque", sprocket=1, reference=0)
 band = jc.observers.BandLevel.mesh_band(18, 0.2, 2.2)   # largest line, 0.5-3.5 mesh orders [dB]
 chordal = jc.observers.SpeedVariation(0.2, 2.2, sprocket=1)
+work = jc.observers.LoadWork()   # (S,) work the loads take out since the start [J]
 meshing = jc.observers.EngagementPeaks(window=0.5)   # every meshing event's peak force
 # (per sprocket and roller, windows in tooth periods); read with jc.engagement_peaks(sol)
 sol = jc.simulate(scene, t1, observers=(lines, chordal)); sol.observed
@@ -29,6 +30,7 @@ from ._observers import (
     AbstractIntegralObserver as AbstractIntegralObserver,
     AbstractObserver as AbstractObserver,
     AbstractStepObserver as AbstractStepObserver,
+    LoadWork as LoadWork,
     PeakRecord as PeakRecord,
     SampledSoftPeak as SampledSoftPeak,
     SoftPeak as SoftPeak,

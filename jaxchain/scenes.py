@@ -5,7 +5,6 @@ scene = jc.scenes.drive("08B", teeth=(18, 36, 27), centres=((0, 0), (0.3, 0.05),
 scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
 """
 
-from ._ensemble import stack as stack
 from ._scenes.build import (
     CLEARANCE_JOINT_FRICTION as CLEARANCE_JOINT_FRICTION,
     JOINT_FRICTION as JOINT_FRICTION,
@@ -35,3 +34,4 @@ from ._scenes.statics import (
     resettle as resettle,
     statics_jacobian as statics_jacobian,
 )
+from ._stack import stack as stack

@@ -36,6 +36,14 @@ from pathlib import Path
 # host callback are what XLA's persistent compilation cache keeps (see main()).
 os.environ.setdefault("EQX_ON_ERROR", "nan")
 
+try:
+    import optax  # noqa: F401
+except ImportError:
+    sys.exit(
+        "python -m optimize needs optax, the optimize extra: "
+        'pip install -e ".[optimize]" (from the repository root)'
+    )
+
 from .problem import HORIZONS, PROBLEMS, Settings  # noqa: E402
 
 
@@ -49,7 +57,15 @@ def _floats(text: str) -> tuple[float, ...]:
 
 
 # what --fast changes: a small run with the same code paths (CI, notebooks in fast mode)
-FAST = dict(periods=2, warmup=1, ensemble=(1.0,), wear=(0.0,), iterations=3, baseline_budget=4)
+FAST = dict(
+    periods=2,
+    warmup=1,
+    ensemble=(1.0,),
+    wear=(0.0,),
+    iterations=3,
+    baseline_budget=4,
+    clearance_engagements=0,
+)
 FAST_RTOL = 1e-6  # the re-measurement's tolerance (no option of its own)
 
 
@@ -193,6 +209,21 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         help=f"simulations for the Nelder–Mead comparison (0 skips it; default "
         f"{d.baseline_budget})",
     )
+    ap.add_argument(
+        "--clearance-engagements",
+        type=int,
+        default=None,
+        help="re-measure both designs in the clearance-joint chain (the source paper's "
+        "model, default joint friction) over this many meshing events per operating point "
+        f"(0 skips it; default {d.clearance_engagements})",
+    )
+    ap.add_argument(
+        "--clearance-points",
+        choices=("worst", "all"),
+        default=d.clearance_points,
+        help="where to re-measure in the clearance chain: the baseline's worst operating "
+        "point in the lumped chain (default; about a minute) or all of them",
+    )
     ap.add_argument("--out", type=Path, default=Path("results/optimize"), help="output folder")
     ap.add_argument("--resume", action="store_true", help="continue from --out's checkpoint")
     ap.add_argument(
@@ -236,6 +267,8 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         samples=args.samples,
         horizon=args.horizon,
         baseline_budget=args.baseline_budget,
+        clearance_engagements=args.clearance_engagements,
+        clearance_points=args.clearance_points,
     )
     if args.fast or os.environ.get("JAXCHAIN_FAST") == "1":  # as the notebooks read it
         s = fast_settings(s, given)

@@ -73,6 +73,10 @@ class Settings:
     clip: float = 100.0  # largest gradient norm passed to the optimizer [N] (0: no clipping)
     baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
     remeasure_rtol: float = 1e-9
+    # the re-measurement in the clearance-joint chain: meshing events per operating point
+    # (0: skip it) and at which points ("worst": the baseline's worst in the lumped chain)
+    clearance_engagements: int = 30
+    clearance_points: str = "worst"
 
     def validate(self) -> None:
         if self.problem not in PROBLEMS:
@@ -138,6 +142,16 @@ class Settings:
             raise ValueError(
                 "joint_slip must be in [1e-4, 0.1] m/s (nominal joint friction: "
                 f"{float(jc.scenes.JOINT_FRICTION.slip_velocity)}), got {self.joint_slip}"
+            )
+        if not 0 <= self.clearance_engagements <= 1000:
+            raise ValueError(
+                "clearance_engagements must be in [0, 1000] (0 skips the clearance-chain "
+                f"re-measurement; 30 or more for a confidence interval), got "
+                f"{self.clearance_engagements}"
+            )
+        if self.clearance_points not in ("worst", "all"):
+            raise ValueError(
+                f"clearance_points must be 'worst' or 'all', got {self.clearance_points!r}"
             )
         if self.dt > 2e-5:
             raise ValueError(f"dt must be <= 2e-5 s to resolve the meshing impacts, got {self.dt}")

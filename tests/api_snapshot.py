@@ -47,6 +47,7 @@ MODULES = (
     "jaxchain.contact",
     "jaxchain.design",
     "jaxchain.observers",
+    "jaxchain.loads",
     "jaxchain.distributed",
     "jaxchain.launch",
 )

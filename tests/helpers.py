@@ -68,10 +68,11 @@ def tooth_period(rpm, z):
 
 
 def energy_balance_error(scene, t1: float, n_save: int) -> tuple[float, float]:
-    """Largest |Δ(stored energy) − driver work| over [0, t1] relative to the largest work
-    [J], and that work: a dissipation-free drive's mechanical energy (every component of
-    ``jc.energy``) changes exactly by the driver's work ∫ −τ_chain·ω1 dt (trapezoid rule
-    over ``n_save`` saves of a tight adaptive solve of ``jc.vector_field``)."""
+    """Largest |Δ(stored energy) − driver work + load work| over [0, t1] relative to the
+    largest driver work [J], and that work: a dissipation-free drive's mechanical energy
+    (every component of ``jc.energy``) changes exactly by the driver's work ∫ −τ_chain·ω1 dt
+    less the work the loads take out, ∫ Σ τ_load,k·ω_k dt (trapezoid rule over ``n_save``
+    saves of a tight adaptive solve of ``jc.vector_field``)."""
     import diffrax
 
     import jaxchain as jc
@@ -90,12 +91,16 @@ def energy_balance_error(scene, t1: float, n_save: int) -> tuple[float, float]:
         stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-13),
         max_steps=500_000,
     )
+
     # jitted: an eager vmap over the saved states dispatches (and batches) op by op
-    e, torque = jax.jit(
-        jax.vmap(lambda t, y: (jc.energy(t, y, scene), forces(t, y, scene).sprocket_torque[0]))
-    )(ts, sol.ys)
+    def parts(t, y):
+        sprockets = enumerate(scene.sprockets)
+        load = sum(s.load(t, y.theta[k], y.omega[k]) * y.omega[k] for k, s in sprockets)
+        return jc.energy(t, y, scene), forces(t, y, scene).sprocket_torque[0], load
+
+    e, torque, load = jax.jit(jax.vmap(parts))(ts, sol.ys)
     total = np.asarray(sum(e.values()))
-    power = -np.asarray(torque) * float(scene.sprockets[0].speed)
+    power = -np.asarray(torque) * float(scene.sprockets[0].speed) - np.asarray(load)
     dt = float(ts[1] - ts[0])
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * dt)])
     scale = float(np.abs(work).max())

@@ -108,6 +108,28 @@ def test_default_problem_runs_end_to_end(tmp_path):
     assert jc.load_profile(tmp_path / "profile.json").arcs == 2
 
 
+@pytest.mark.slow
+def test_clearance_remeasurement(tmp_path):
+    """The fast run with the clearance-chain re-measurement on (4 engagements): per
+    engagement statistics of both designs at the one operating point, the difference's
+    interval, and the summary's fidelity, engagement count and interval per member."""
+    res = main(["--fast", "--quiet", "--out", str(tmp_path), "--clearance-engagements", "4"])
+    c = res["clearance"]
+    assert c["fidelity"] == "clearance" and len(c["members"]) == 1
+    m = c["members"][0]
+    for name in ("optimized", c["baseline"]):
+        assert m[name]["ok"], m[name]["message"]
+        assert m[name]["n"] >= 3 and len(m[name]["peaks_N"]) == m[name]["n"]
+        lo, hi = m[name]["ci95_N"]
+        assert lo < m[name]["mean_N"] < hi
+    d = m["optimized"]["difference"]
+    assert d["ci95_N"][0] < d["mean_N"] < d["ci95_N"][1]
+    row = res["summary"]["clearance"]["members"][0]
+    assert row["optimized_engagements"] == m["optimized"]["n"]
+    assert row["improvement"] == pytest.approx(-d["relative"])
+    assert "clearance" in (tmp_path / "results.json").read_text()
+
+
 def test_torque_spectrum_reads_amplitudes_and_band_rms():
     """The spectra the main job writes: a Hann-windowed sine reads its amplitude at its
     frequency, and each band's RMS is the RMS of the sine inside it (A/√2), zero elsewhere."""
@@ -164,6 +186,7 @@ def test_bad_options_are_explained():
         (["--clip", "nan"], r"clip must be a finite number >= 0 \(0: no clipping\), got nan"),
         (["--ensemble", "1,nan"], r"ensemble speed factors must be in \[0.2, 5\]"),
         (["--dt", "1e-3"], "dt must be <= 2e-5 s"),
+        (["--clearance-engagements", "-1"], r"clearance_engagements must be in \[0, 1000\]"),
         (["--samples", "-1"], r"samples must be in \[0, 64\] \(0: the soft peak integrated"),
         (["--pretension", "-1"], r"pretension must be a finite number > 0 \[N\], got -1.0"),
         # a drive whose load the pretension cannot carry: the builder's fix, in options

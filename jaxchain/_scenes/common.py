@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from .. import _checks as checks
 from .._chain import ChainSpec
+from .._loads import AbstractLoad
 from .._numerics import is_concrete
 from .._profile import ToothProfile
 from .build import joint_law, link_stiffness
@@ -97,13 +99,10 @@ def contact_slots(wrap: int, n_rollers: int, profile=None) -> int | None:
     rollers a side)."""
     side = 3
     dims = (
-        None
-        if profile is None
-        else (profile.pitch_diameter, profile.tip_diameter, profile.roller_radius, profile.pitch)
+        None if profile is None else (profile.pitch_diameter, profile.reach_radius, profile.pitch)
     )
     if dims is not None and is_concrete(*dims):
-        d, da, r, p = (float(np.min(dims[0])), float(np.max(dims[1])), *map(float, dims[2:]))
-        reach = da / 2 + 1.05 * r
+        d, reach, p = float(np.min(dims[0])), float(np.max(dims[1])), float(dims[2])
         side = math.ceil(math.sqrt(max(reach**2 - (d / 2) ** 2, 0.0)) / p) + 1
     slots = math.ceil(wrap) + 2 * side
     return None if 2 * slots > n_rollers else slots
@@ -165,3 +164,42 @@ def as_gravity(gravity) -> np.ndarray | None:
             raise ValueError(f"gravity as a scalar must be >= 0 m/s² (along −y), got {float(g)}")
         return np.array([0.0, -float(g)])
     return g
+
+
+def as_load(name: str, value, speed: float) -> tuple[AbstractLoad | float, float]:
+    """A builder's ``load_torque`` for one driven sprocket turning at ``speed`` [rad/s] in
+    its running direction: (what its :class:`Sprocket` takes, the torque the statics hold
+    at the start [N·m]). A number must be finite and ≥ 0; a load's start value finite."""
+    if isinstance(value, AbstractLoad):
+        held = float(value.torque(0.0, 0.0, speed))
+        if not math.isfinite(held):
+            raise ValueError(f"{name}: the load's torque at the start is {held}; it must be finite")
+        return value, held
+    value = checks.real(name, value, lo=0.0, unit="N·m (or a jc.loads load)")
+    return value, value
+
+
+def as_loads(name: str, value, speeds) -> tuple[tuple, tuple[float, ...]]:
+    """``load_torque`` for the driven sprockets turning at ``speeds`` [rad/s]: one number or
+    load for every one, or one per driven sprocket. (loads, torques held at the start)."""
+    n = len(speeds)
+    if isinstance(value, Sequence | np.ndarray) and not isinstance(value, (str, bytes)):
+        if len(value) != n:
+            raise ValueError(
+                f"{name} must be one value for every driven sprocket or one per driven "
+                f"sprocket ({n} for {n + 1} sprockets), got {len(value)}: {tuple(value)!r}"
+            )
+        given = zip(value, speeds, strict=True)
+        pairs = [as_load(f"{name}[{k}]", v, w) for k, (v, w) in enumerate(given)]
+    else:
+        pairs = [as_load(name, value, w) for w in speeds]
+    return tuple(p[0] for p in pairs), tuple(p[1] for p in pairs)
+
+
+def check_load_ramp(loads, load_ramp) -> None:
+    """``load_ramp`` ramps numbers in; a load object carries its own time dependence."""
+    if load_ramp and any(isinstance(v, AbstractLoad) for v in loads):
+        raise ValueError(
+            "load_ramp applies to a number load_torque; a jc.loads load carries its own time "
+            "dependence (jc.loads.Ramped(value, duration) ramps one in): leave load_ramp out"
+        )

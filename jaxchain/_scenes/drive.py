@@ -15,13 +15,16 @@ from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._freeform import FreeformProfile
+from .._loads import AbstractLoad
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
     as_gravity,
+    as_load,
     check_below_strength,
     check_common,
+    check_load_ramp,
     check_profile,
     contact_slots,
     disc_inertia,
@@ -46,7 +49,7 @@ def drive(
     centre_distance: float | None = None,
     n_links: int | None = None,
     speed_rpm: float = 1000.0,
-    load_torque: float | Sequence[float] = 20.0,
+    load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
     pretension: float = 200.0,
     elongation: float = 0.0,
     fidelity: Literal["lumped", "clearance"] = "lumped",
@@ -115,8 +118,10 @@ def drive(
         n_links: even number of links.
         speed_rpm: driver speed [rpm], > 0; every scene built with the defaults runs with
             ``simulate``'s defaults from 100 to 3000 rpm, in both fidelities.
-        load_torque: resisting torque [N·m], ≥ 0, on every driven sprocket (a scalar) or
-            one per driven sprocket.
+        load_torque: the torque resisting each driven sprocket's rotation: a number [N·m],
+            ≥ 0, or a load (``jc.loads.Harmonic(...)``, any ``jc.loads.AbstractLoad``), for
+            every driven sprocket, or one per driven sprocket. The statics hold a load at its
+            value at the start; a number is ramped in over ``load_ramp``.
         pretension: chain tension at rest [N], ≥ 0.
         elongation: the chain's wear, 0–0.03: its pitch is p·(1 + elongation) while the
             sprockets stay cut for p (ISO 606 tooth forms tolerate about 0.03). The worn
@@ -245,7 +250,8 @@ def drive(
     z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
     for k, z in enumerate((z1, z2)):
         checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
-    load_torque = checks.real("load_torque", load_torque, lo=0.0, unit="N·m")
+    load, load_torque = as_load("load_torque", load_torque, speed_rpm * math.pi / 30 * z1 / z2)
+    check_load_ramp((load,), load_ramp)
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     if centre_distance is not None:
         centre_distance = checks.real(
@@ -332,9 +338,9 @@ def drive(
             [lay.centre_distance, 0.0],
             omega1 * z1 / z2,
             inertia=driven_inertia,
-            load_torque=load_torque,
+            load_torque=load,
             angle0=lay.theta[1],
-            load_ramp=load_ramp,
+            load_ramp=0.0 if isinstance(load, AbstractLoad) else load_ramp,
             driven=True,
             contact_slots=contact_slots(lay.wrap[1], lay.n_links, profiles[1]),
         ),

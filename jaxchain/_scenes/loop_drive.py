@@ -14,11 +14,14 @@ from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._freeform import FreeformProfile
+from .._loads import AbstractLoad
 from .._profile import MAX_TEETH, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
+    as_loads,
     check_below_strength,
+    check_load_ramp,
     check_profile,
     contact_slots,
     disc_inertia,
@@ -108,7 +111,10 @@ def loop_drive(
         raise ValueError(f"teeth must hold at least 2 tooth counts (driver first), got {n}")
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
     centres = _as_centres(centres, n)
-    loads = (0.0, *_per_driven("load_torque", load_torque, n - 1, "N·m", lo_open=False))
+    speeds = [speed_rpm * math.pi / 30 * teeth[0] / z for z in teeth[1:]]
+    driven_loads, held = as_loads("load_torque", load_torque, speeds)
+    check_load_ramp(driven_loads, load_ramp)
+    loads = (0.0, *held)  # the torques the statics hold at the start [N·m]
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     if load_ramp is not None:
         load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
@@ -232,10 +238,10 @@ def loop_drive(
             lay.centres[real[k]],
             omega1 * teeth[0] / teeth[k] * int(lay.sense[real[k]]),
             inertia=inertias[k],
-            # the load opposes the sprocket's own turning
-            load_torque=loads[k] * int(lay.sense[real[k]]),
+            load_torque=driven_loads[k - 1] if k else 0.0,  # opposes its own turning
             angle0=lay.theta[real[k]],
-            load_ramp=load_ramp if k else 0.0,
+            load_ramp=load_ramp if k and not isinstance(driven_loads[k - 1], AbstractLoad) else 0.0,
+            sense=int(lay.sense[real[k]]),
             driven=k > 0,
             contact_slots=contact_slots(lay.wrap[real[k]], lay.n_links, profiles[k]),
             take_up_vector=(lay.take_up_vector if k == m and tensioner is None else np.zeros(2)),

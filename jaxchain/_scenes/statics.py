@@ -110,7 +110,7 @@ def _residual(x, args):
     res = fr.body / force_scale
     # torques in units of force_scale·pitch; bodies that cannot turn (points) are pinned
     res = res.at[:, 2].set(jnp.where(rot_mask, res[:, 2] / pitch, pin[: 3 * n].reshape(n, 3)[:, 2]))
-    loads = jnp.stack([s.load_torque for s in scene.sprockets])
+    loads = jnp.stack([s.load(0.0) for s in scene.sprockets])  # held at the start
     moment = jnp.where(
         free, (fr.sprocket_torque - loads) / (force_scale * pitch), pin[3 * n : 3 * n + ns]
     )

@@ -1,0 +1,173 @@
+"""Loads: the torque a driven sprocket's machine puts on its shaft.
+
+A load is a small ``eqx.Module`` with one method, ``torque(t, angle, speed)`` [N·m]: the
+torque resisting the sprocket's rotation at time ``t`` [s], where ``angle`` [rad] is the
+angle the sprocket has turned since the start and ``speed`` [rad/s] its speed, both
+positive in the direction the sprocket runs (a sprocket the chain wraps clockwise runs
+clockwise). Its array leaves can be differentiated and vmapped like the rest of a scene.
+
+The statics hold a load at its value at the start (``t = 0``, ``angle = 0``, the
+sprocket's starting speed); :class:`~jaxchain.observers.LoadWork` integrates the work the
+loads take out of the drive, which closes the energy balance.
+
+A new load subclasses :class:`AbstractLoad` and implements ``torque``; nothing else in
+jaxchain changes.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Sequence
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ._numerics import is_concrete
+
+__all__ = ["AbstractLoad", "Constant", "Ramped", "Harmonic", "as_load"]
+
+
+class AbstractLoad(eqx.Module):
+    """A torque resisting a sprocket's rotation, a function of time, its angle turned since
+    the start and its speed (both in its running direction)."""
+
+    @abc.abstractmethod
+    def torque(self, t, angle, speed) -> Array:
+        """The resisting torque [N·m] at time ``t`` [s], angle ``angle`` [rad] turned since
+        the start and speed ``speed`` [rad/s]."""
+
+    @property
+    def mean_torque(self) -> Array:
+        """The torque about which the load varies [N·m] (what layouts and the chain's
+        static tension checks use); by default its value at the start, at rest."""
+        return self.torque(0.0, 0.0, 0.0)
+
+    def is_zero(self) -> bool:
+        """Whether the load is known to be zero at every instant (an idler); concrete values
+        only."""
+        return False
+
+
+class Constant(AbstractLoad):
+    """A constant resisting torque ``value`` [N·m]."""
+
+    value: Float[Array, ""]
+
+    def __init__(self, value: ArrayLike):
+        self.value = jnp.asarray(value, dtype=float)
+
+    def __check_init__(self):
+        _finite(self, "Constant", "value")
+
+    def torque(self, t, angle, speed):
+        del t, angle, speed
+        return self.value
+
+    @property
+    def mean_torque(self):
+        return self.value
+
+    def is_zero(self) -> bool:
+        return is_concrete(self) and not np.any(np.asarray(self.value))
+
+
+class Ramped(AbstractLoad):
+    """A torque rising smoothly (C¹ smoothstep) from 0 at t = 0 to ``value`` [N·m] at
+    ``duration`` [s], then constant; ``duration = 0`` applies it at once."""
+
+    value: Float[Array, ""]
+    duration: Float[Array, ""]
+
+    def __init__(self, value: ArrayLike, duration: ArrayLike):
+        self.value = jnp.asarray(value, dtype=float)
+        self.duration = jnp.asarray(duration, dtype=float)
+
+    def __check_init__(self):
+        _finite(self, "Ramped", "value", "duration")
+        if is_concrete(self) and np.any(np.asarray(self.duration) < 0):
+            raise ValueError(f"Ramped: duration must be >= 0 s, got {self.duration}")
+
+    def torque(self, t, angle, speed):
+        del angle, speed
+        ramp = self.duration
+        x = jnp.clip(t / jnp.where(ramp > 0, ramp, 1.0), 0.0, 1.0)
+        return self.value * jnp.where(ramp > 0, x * x * (3 - 2 * x), 1.0)
+
+    @property
+    def mean_torque(self):
+        return self.value
+
+    def is_zero(self) -> bool:
+        return is_concrete(self) and not np.any(np.asarray(self.value))
+
+
+class Harmonic(AbstractLoad):
+    """A torque periodic in the sprocket's angle: τ = mean + Σ Aₖ·sin(nₖ·angle + φₖ) [N·m].
+
+    ``harmonics`` is a sequence of ``(order, amplitude, phase)``: order nₖ in cycles per
+    revolution of this sprocket (need not be an integer), amplitude Aₖ [N·m], phase φₖ
+    [rad]. A camshaft's valve-train torque is of this form: on a four-cylinder engine its
+    strongest order is the 2nd of the crankshaft, the 4th of a camshaft that turns at half
+    the crank's speed. The torque depends on the angle only, so it is conservative: its
+    work over a whole number of periods is ``mean`` times the angle turned.
+    """
+
+    mean: Float[Array, ""]
+    orders: Float[Array, " H"]
+    amplitudes: Float[Array, " H"]
+    phases: Float[Array, " H"]
+
+    def __init__(self, mean: ArrayLike, harmonics: Sequence[Sequence[float]] = ()):
+        rows = [tuple(h) for h in harmonics]
+        for k, h in enumerate(rows):
+            if len(h) != 3:
+                raise ValueError(
+                    f"Harmonic: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
+                )
+        self.mean = jnp.asarray(mean, dtype=float)
+        self.orders = jnp.asarray([h[0] for h in rows], dtype=float).reshape(-1)
+        self.amplitudes = jnp.asarray([h[1] for h in rows], dtype=float).reshape(-1)
+        self.phases = jnp.asarray([h[2] for h in rows], dtype=float).reshape(-1)
+
+    def __check_init__(self):
+        _finite(self, "Harmonic", "mean", "orders", "amplitudes", "phases")
+        if is_concrete(self) and np.any(np.asarray(self.orders) <= 0):
+            raise ValueError(
+                f"Harmonic: every order must be > 0 (cycles per revolution), got "
+                f"{np.asarray(self.orders).tolist()}"
+            )
+
+    def torque(self, t, angle, speed):
+        del t, speed
+        wave = self.amplitudes * jnp.sin(self.orders * angle + self.phases)
+        return self.mean + jnp.sum(wave, axis=-1)
+
+    @property
+    def mean_torque(self):
+        return self.mean
+
+
+def _finite(load, kind: str, *names: str) -> None:
+    if not is_concrete(load):
+        return
+    for name in names:
+        value = np.asarray(getattr(load, name))
+        if not np.all(np.isfinite(value)):
+            raise ValueError(f"{kind}: {name} must be finite, got {value.tolist()}")
+
+
+def as_load(value, name: str = "load_torque", *, ramp: ArrayLike = 0.0) -> AbstractLoad:
+    """A load from what a builder was given: an :class:`AbstractLoad` as is; a number as a
+    :class:`Ramped` over ``ramp`` [s] (``ramp = 0``: applied at once), one type whatever
+    the ramp so that scenes built from numbers stack."""
+    if isinstance(value, AbstractLoad):
+        return value
+    if isinstance(value, eqx.Module):
+        raise TypeError(
+            f"{name} must be a number [N·m] or a jc.loads load (jc.loads.Constant, "
+            f"jc.loads.Ramped, jc.loads.Harmonic, or a subclass of jc.loads.AbstractLoad), "
+            f"got {type(value).__name__}"
+        )
+    return Ramped(value, ramp)

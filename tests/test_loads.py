@@ -1,0 +1,143 @@
+"""Loads on driven sprockets (``jc.loads``): the harmonic load's formula, the statics
+holding a load at its start value, the energy balance counting the loads' work, and a load
+defined in this file alone."""
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxchain as jc
+from jaxchain._dynamics import forces, initial_state
+
+from helpers import energy_balance_error, tooth_period
+
+CAM = jc.loads.Harmonic(2.0, harmonics=((2, 1.5, 0.4), (4, 0.5, -1.0)))
+# a dissipation-free 9/18 drive whose driven sprocket carries the harmonic load
+FREE = dict(
+    teeth=(9, 18),
+    n_links=40,
+    speed_rpm=600,
+    pretension=300.0,
+    restitution=1.0,
+    link_damping=0.0,
+    joint_friction=None,
+)
+
+
+def test_harmonic_formula_and_mean():
+    angle = jnp.linspace(0.0, 2 * math.pi, 7)
+    want = 2.0 + 1.5 * np.sin(2 * angle + 0.4) + 0.5 * np.sin(4 * angle - 1.0)
+    np.testing.assert_allclose(jax.vmap(lambda a: CAM.torque(0.0, a, 1.0))(angle), want)
+    assert float(CAM.mean_torque) == 2.0
+    # the amplitudes and phases are differentiable leaves
+    g = jax.grad(lambda h: h.torque(0.0, 0.3, 0.0))(CAM)
+    np.testing.assert_allclose(g.amplitudes, [np.sin(0.6 + 0.4), np.sin(1.2 - 1.0)])
+    assert float(jc.loads.Ramped(5.0, 2.0).torque(1.0, 0.0, 0.0)) == pytest.approx(2.5)
+    assert float(jc.loads.Constant(3.0).torque(9.0, 1.0, 2.0)) == 3.0
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [
+        (lambda: jc.loads.Harmonic(1.0, ((0.0, 1.0, 0.0),)), "every order must be > 0"),
+        (lambda: jc.loads.Harmonic(1.0, ((2, 1.0),)), r"must be \(order, amplitude, phase\)"),
+        (lambda: jc.loads.Harmonic(float("nan")), "mean must be finite"),
+        (lambda: jc.loads.Ramped(1.0, -1.0), "duration must be >= 0 s"),
+        (lambda: jc.scenes.drive(load_torque=jc.contact.CoulombFriction(0.1)), "jc.loads load"),
+        (lambda: jc.scenes.drive(load_torque=CAM, load_ramp=0.1), "load_ramp applies to a number"),
+        (
+            lambda: jc.scenes.drive(
+                teeth=(18, 36, 27),
+                centres=((0.0, 0.0), (0.22, 0.03), (0.09, 0.17)),
+                load_torque=(CAM, 1.0),
+                load_ramp=0.1,
+            ),
+            "load_ramp applies to a number",
+        ),
+    ],
+)
+def test_bad_loads_refused(make, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        make()
+
+
+@pytest.fixture(scope="module")
+def cam_drive():
+    return jc.scenes.drive("08B", load_torque=CAM, **FREE)
+
+
+def test_statics_hold_the_load_at_its_start_value(cam_drive):
+    """At the settled start the chain's torque on the driven sprocket equals the harmonic
+    load at angle 0: 2 + 1.5 sin 0.4 + 0.5 sin(−1)."""
+    y = initial_state(cam_drive)
+    y = y._replace(v=jnp.zeros_like(y.v), omega=jnp.zeros_like(y.omega))
+    held = 2.0 + 1.5 * math.sin(0.4) + 0.5 * math.sin(-1.0)
+    assert float(cam_drive.sprockets[1].load(0.0)) == pytest.approx(held)
+    torque = float(forces(0.0, y, cam_drive).sprocket_torque[1])
+    assert torque == pytest.approx(held, rel=1e-6)
+
+
+def test_energy_balance_counts_the_load_work(cam_drive):
+    """Without dissipation the stored energy changes by the driver's work less the work
+    the harmonic load takes out (which is most of the driver's work here)."""
+    err, scale = energy_balance_error(cam_drive, 0.5 * tooth_period(600, 9), 2001)
+    assert scale > 1e-2
+    assert err < 1e-3, err
+
+
+class Viscous(jc.loads.AbstractLoad):
+    """A load of this file alone: a torque proportional to the speed (a fan, a pump)."""
+
+    coefficient: jax.Array
+
+    def __init__(self, coefficient):
+        self.coefficient = jnp.asarray(coefficient, dtype=float)
+
+    def torque(self, t, angle, speed):
+        return self.coefficient * speed
+
+
+def test_user_defined_load():
+    """A load subclassed in this file drives the dynamics, the statics and the load-work
+    observer, with no change anywhere else: its work matches ∫ c·ω² dt from the saved
+    speeds."""
+    load = Viscous(0.05)  # N·m per rad/s: 1.57 N·m at the driven sprocket's 31.4 rad/s
+    scene = jc.scenes.drive("08B", load_torque=load, **FREE)
+    spr = scene.sprockets[1]
+    assert isinstance(spr.torque_load, Viscous)
+    assert float(spr.load(0.0)) == pytest.approx(0.05 * float(spr.speed))
+    t1 = tooth_period(600, 9)
+    sol = jc.simulate(scene, t1, n_save=2001, observers=(jc.observers.LoadWork(),))
+    work = np.asarray(sol.observed[0])
+    omega = np.asarray(sol.sprocket_speed[:, 1])
+    ts = np.asarray(sol.ts)
+    want = np.sum(0.5 * (0.05 * omega[1:] ** 2 + 0.05 * omega[:-1] ** 2) * np.diff(ts))
+    assert work[0] == 0.0
+    assert work[1] == pytest.approx(want, rel=1e-4)  # the trapezoid rule's error: 1.4e-6
+
+
+def test_load_counts_in_the_running_direction():
+    """A sprocket running clockwise (sense −1) sees its own angle and speed positive; its
+    load resists clockwise rotation, a negative torque against counter-clockwise."""
+    prof = jc.ToothProfile.iso606("08B", 18)
+    cw = jc.Sprocket(prof, [0.0, 0.0], -3.0, load_torque=Viscous(0.05), driven=True, sense=-1)
+    assert float(cw.load(0.0)) == pytest.approx(-0.15)
+    cam = jc.Sprocket(prof, [0.0, 0.0], -3.0, load_torque=CAM, driven=True, sense=-1, angle0=1.0)
+    # turned 0.2 rad clockwise from its start
+    assert float(cam.load(0.0, 0.8, -3.0)) == pytest.approx(-float(CAM.torque(0.0, 0.2, 3.0)))
+    assert float(cam.load_torque) == -2.0
+    with pytest.raises(ValueError, match="sense must be"):
+        jc.Sprocket(prof, [0.0, 0.0], 1.0, sense=0)
+
+
+def test_number_loads_stack():
+    """Builders turn numbers into one load type whatever the ramp, so such scenes stack."""
+    a = jc.scenes.drive("08B", load_torque=5.0, settle=False, **FREE)
+    b = jc.scenes.drive("08B", load_torque=7.0, settle=False, **FREE)
+    stacked = jc.scenes.stack([a, b])
+    np.testing.assert_allclose(stacked.sprockets[1].load_torque, [5.0, 7.0])
+    assert eqx.tree_equal(jax.tree.structure(a), jax.tree.structure(b))
