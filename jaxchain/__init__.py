@@ -52,6 +52,7 @@ from ._plot_drive import (
     plot_tensions as plot_tensions,
 )
 from ._profile import (
+    AbstractProfile as AbstractProfile,
     ProfileGeometry as ProfileGeometry,
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,

@@ -28,7 +28,7 @@ from ._observers import (
     window_weight as window_weight,
 )
 from ._options import SolveOptions, with_options
-from ._profile import ToothProfile, iso606_limits
+from ._profile import AbstractProfile, ToothProfile, iso606_limits
 from ._result import Result, raise_if_failed
 from ._scene import Scene
 from ._scenes.statics import resettle, statics_jacobian
@@ -90,8 +90,8 @@ class DesignSpace(eqx.Module):
             checks.instance("template", template, ToothProfile, "a jc.ToothProfile")
         else:
             checks.instance(
-                "template", template, (ToothProfile, FreeformProfile),
-                "a jc.ToothProfile or jc.FreeformProfile",
+                "template", template, AbstractProfile,
+                "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
             )  # fmt: skip
         shapes = tuple(tuple(s) for s in shapes) if shapes is not None else ((),) * len(names)
         n = sum(math.prod(s) for s in shapes)
@@ -174,7 +174,7 @@ class DesignSpace(eqx.Module):
         values on or beyond a bound are pulled ``margin`` (as a fraction of the range)
         inside."""
         checks.real("margin", margin, lo=0.0, hi=0.5, lo_open=True, hi_open=True)
-        if isinstance(profile, (ToothProfile, FreeformProfile)):
+        if isinstance(profile, AbstractProfile):
             t = self.template
             if profile.teeth != t.teeth or not np.allclose(
                 [profile.pitch, profile.roller_diameter], [t.pitch, t.roller_diameter]

@@ -43,7 +43,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ._numerics import is_concrete, safe_norm, safe_sqrt
-from ._profile import SprocketDerived, ToothProfile, _check_teeth
+from ._profile import AbstractProfile, ToothProfile, _check_teeth
 
 __all__ = ["Flank", "FreeformProfile"]
 
@@ -77,7 +77,7 @@ class Flank(eqx.Module):
         return self.curvature.shape[-1]
 
 
-class FreeformProfile(SprocketDerived, eqx.Module):
+class FreeformProfile(AbstractProfile):
     """A sprocket's tooth profile with free-form asymmetric flanks and per-tooth patterns.
 
     All geometric fields are array leaves (differentiable); ``teeth`` and
@@ -195,9 +195,18 @@ class FreeformProfile(SprocketDerived, eqx.Module):
     def outline(self, n: int = 60, gap: int = 0) -> np.ndarray:
         """Points (N, 2) [m] of gap ``gap``'s outline, sprocket frame, from the tooth centre
         line on its clockwise side, round the seat, to the one on its counter-clockwise
-        side. For plotting (NumPy, not traced)."""
+        side (``gap`` modulo the teeth). For plotting (NumPy, not traced)."""
         g = self.gaps()
-        return _gap_outline(g, gap, n)
+        return _gap_outline(g, gap % self.teeth, n)
+
+    def uniform(self) -> FreeformProfile:
+        """This profile with each per-gap leaf replaced by its mean over the gaps."""
+        z = self.teeth
+
+        def mean(x):
+            return jnp.mean(x, 0) if jnp.ndim(x) and jnp.shape(x)[0] == z else x
+
+        return jax.tree_util.tree_map(mean, self)
 
     def sprocket_outline(self, n: int = 30) -> np.ndarray:
         """Closed outline (N, 2) [m] of the whole sprocket (all z gaps)."""

@@ -30,8 +30,6 @@ def _seated_roller(prof, gap: int = 0) -> np.ndarray:
 
 
 def _gap_outline(prof, n: int, gap: int) -> np.ndarray:
-    if isinstance(prof, FreeformProfile):
-        return prof.outline(n, gap % prof.teeth)
     return prof.outline(n, gap)
 
 
@@ -115,7 +113,7 @@ def plot_sprocket(
         _, ax = plt.subplots(figsize=(6, 6))
     z = profile.teeth
     if reference is None:
-        reference = _uniform(profile)
+        reference = profile.uniform()
     ref = np.asarray(reference.sprocket_outline(60))
     out = np.asarray(profile.sprocket_outline(60))
     # departure along the reference's normal: its exact signed distance at each point
@@ -141,15 +139,3 @@ def plot_sprocket(
     ax.set_title(f"z = {z}: departure from the reference ×{exaggerate:.3g}")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=8)
     return ax
-
-
-def _uniform(profile):
-    """``profile`` with each per-gap leaf replaced by its mean over the gaps."""
-    if not isinstance(profile, FreeformProfile):
-        return profile
-    z = profile.teeth
-
-    def mean(x):
-        return jnp.mean(x, 0) if jnp.ndim(x) and jnp.shape(x)[0] == z else x
-
-    return jax.tree_util.tree_map(mean, profile)

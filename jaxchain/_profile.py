@@ -18,6 +18,7 @@ Outline of one gap, upper half (the lower half is its mirror image in the x axis
 
 from __future__ import annotations
 
+import abc
 import math
 from pathlib import Path
 from typing import Literal, NamedTuple
@@ -90,10 +91,35 @@ class ProfileGeometry(NamedTuple):
 REACH_MARGIN = 1.05  # roller radii beyond the tip circle a roller may still touch
 
 
-class SprocketDerived:
-    """What every tooth profile derives alike from its ``teeth``, ``pitch``,
-    ``roller_diameter`` and ``seating_radius`` (a field-less mixin of the profile
-    classes), its CAD export and its saving as JSON."""
+class AbstractProfile(eqx.Module):
+    """A sprocket's tooth profile: what every kind (ISO 606 :class:`ToothProfile`,
+    :class:`~jaxchain.FreeformProfile`) has, and what it derives alike from its ``teeth``,
+    ``pitch``, ``roller_diameter``, ``seating_radius`` and ``tip_diameter``: the pitch
+    circle, the reach of its teeth, its CAD export and its saving as JSON. Scenes,
+    builders and design spaces accept any of its kinds.
+
+    Each kind gives its outline (``outline(n, gap)``: one gap's tooth-gap outline, (n, 2)
+    [m] in the sprocket frame; ``sprocket_outline(n)``: the whole sprocket's)."""
+
+    # (each kind also has a ``tip_diameter`` [m]; declared in the kinds, after their own
+    # seat fields, so that their fields keep their order)
+    teeth: eqx.AbstractVar[int]
+    pitch: eqx.AbstractVar[Array]
+    roller_diameter: eqx.AbstractVar[Array]
+    seating_radius: eqx.AbstractVar[Array]
+
+    @abc.abstractmethod
+    def outline(self, n: int = 60, gap: int = 0) -> np.ndarray:
+        """Gap ``gap``'s outline, (n-ish, 2) points [m] in the sprocket frame."""
+
+    @abc.abstractmethod
+    def sprocket_outline(self, n: int = 30) -> np.ndarray:
+        """The whole sprocket's closed outline, (N, 2) points [m]."""
+
+    def uniform(self) -> AbstractProfile:
+        """This profile with every per-gap leaf replaced by its mean over the gaps (the
+        profile itself for a kind whose gaps are all alike)."""
+        return self
 
     @property
     def pitch_diameter(self) -> Array:
@@ -139,7 +165,7 @@ class SprocketDerived:
         return save_profile(self, path)
 
 
-class ToothProfile(SprocketDerived, eqx.Module):
+class ToothProfile(AbstractProfile):
     """A sprocket's tooth-gap profile: seat arc, two flank arcs, tip circle.
 
     All geometric fields are array leaves (differentiable); ``teeth`` is static.

@@ -19,10 +19,9 @@ from jaxtyping import Array, Float, Int
 from ._contact.base import AbstractContactLaw
 from ._contact.dahl import DahlFriction
 from ._contact.friction import CoulombFriction
-from ._freeform import FreeformProfile
 from ._loads import AbstractLoad, as_load
 from ._numerics import is_concrete
-from ._profile import ToothProfile
+from ._profile import AbstractProfile
 
 __all__ = [
     "Sprocket",
@@ -68,7 +67,7 @@ class Sprocket(eqx.Module):
             the whole take-up away from the first sprocket's axis, along their centre line.
     """
 
-    profile: ToothProfile | FreeformProfile
+    profile: AbstractProfile
     centre: Float[Array, 2]
     speed: Float[Array, ""]
     inertia: Float[Array, ""]
@@ -138,9 +137,10 @@ class Sprocket(eqx.Module):
         return getattr(self.torque_load, "duration", jnp.zeros(()))
 
     def __check_init__(self):
-        if not isinstance(self.profile, (ToothProfile, FreeformProfile)):
+        if not isinstance(self.profile, AbstractProfile):
             raise TypeError(
-                "Sprocket: profile must be a jc.ToothProfile or jc.FreeformProfile, got "
+                "Sprocket: profile must be a jc.ToothProfile, jc.FreeformProfile or another "
+                "jc.AbstractProfile, got "
                 f"{type(self.profile).__name__}"
             )
         if np.shape(self.centre)[-1:] != (2,):

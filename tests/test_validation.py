@@ -74,7 +74,8 @@ BAD = [
     (
         lambda: engagement(profile="min"),
         TypeError,
-        "profile must be a jc.ToothProfile, jc.FreeformProfile or None",
+        r"profile must be a tooth profile \(jc.ToothProfile, jc.FreeformProfile, any "
+        r"jc.AbstractProfile\) or None",
     ),
     (
         lambda: engagement(profile=jc.ToothProfile.iso606("10B", 18)),

@@ -16,7 +16,7 @@ from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._freeform import FreeformProfile
 from .._loads import AbstractLoad
-from .._profile import MAX_TEETH, ToothProfile
+from .._profile import MAX_TEETH, AbstractProfile, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
@@ -264,8 +264,8 @@ def drive(
     profiles = checks.pair("profiles", profiles, 2, "tooth profiles (driver, driven)")
     for k, p in enumerate(profiles):
         checks.instance(
-            f"profiles[{k}]", p, (ToothProfile, FreeformProfile),
-            "a jc.ToothProfile or jc.FreeformProfile",
+            f"profiles[{k}]", p, AbstractProfile,
+            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
         )  # fmt: skip
         check_profile(chain, p, f"profiles[{k}]")
     if (profiles[0].teeth, profiles[1].teeth) != (z1, z2):

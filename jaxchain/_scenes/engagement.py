@@ -13,8 +13,7 @@ from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
-from .._freeform import FreeformProfile
-from .._profile import MAX_TEETH, ToothProfile
+from .._profile import MAX_TEETH, AbstractProfile, ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
 from .common import (
@@ -108,8 +107,8 @@ def engagement(
     if profile is None:
         profile = ToothProfile.iso606(chain, teeth, form)
     checks.instance(
-        "profile", profile, (ToothProfile, FreeformProfile),
-        "a jc.ToothProfile, jc.FreeformProfile or None",
+        "profile", profile, AbstractProfile,
+        "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile) or None",
     )  # fmt: skip
     check_profile(chain, profile)
     if profile.teeth != teeth:

@@ -13,9 +13,8 @@ from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
-from .._freeform import FreeformProfile
 from .._loads import AbstractLoad
-from .._profile import MAX_TEETH, ToothProfile
+from .._profile import MAX_TEETH, AbstractProfile, ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
@@ -123,8 +122,8 @@ def loop_drive(
     profiles = checks.pair("profiles", profiles, n, "tooth profiles, one per sprocket")
     for k, p in enumerate(profiles):
         checks.instance(
-            f"profiles[{k}]", p, (ToothProfile, FreeformProfile),
-            "a jc.ToothProfile or jc.FreeformProfile",
+            f"profiles[{k}]", p, AbstractProfile,
+            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
         )  # fmt: skip
         check_profile(chain, p, f"profiles[{k}]")
     if tuple(p.teeth for p in profiles) != teeth:
