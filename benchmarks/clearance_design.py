@@ -103,6 +103,67 @@ def stats_of(peaks) -> dict:
     }
 
 
+def summarize(results: dict) -> None:
+    """From the measured peaks: each design against the best ISO form in the clearance
+    chain (Welch 95 % interval), the rank correlation of the lumped means with the
+    clearance means, the spread of both, and the least-squares slope of the clearance
+    mean on the lumped mean with its 95 % interval."""
+    measured = results["designs"]
+    iso = [n for n in measured if n.startswith("ISO") and "clearance" in measured[n]]
+    best = min(iso, key=lambda n: measured[n]["clearance"]["mean"])
+    results["best_iso_clearance"] = best
+    base = measured[best]["clearance_run"]["peaks_N"]
+    for name, d in measured.items():
+        if "clearance" in d and name != best:
+            c = jc.compare_peaks(base, d["clearance_run"]["peaks_N"])
+            d["against_best_iso"] = {
+                "difference_N": c.difference,
+                "relative": c.relative,
+                "ci": [c.ci_low, c.ci_high],
+                "excludes_zero": bool(c.excludes_zero),
+            }
+    both = [d for d in measured.values() if "clearance" in d and "lumped" in d]
+    lumped = np.array([d["lumped"]["mean"] for d in both])
+    clear = np.array([d["clearance"]["mean"] for d in both])
+    half = [0.5 * (d["clearance"]["ci"][1] - d["clearance"]["ci"][0]) for d in both]
+    results["spread"] = {
+        "clearance_means_N": [float(clear.min()), float(clear.max())],
+        "clearance_ci_half_width_N": [min(half), max(half)],
+        "lumped_means_N": [float(lumped.min()), float(lumped.max())],
+    }
+    if len(both) < 3:
+        return
+    rho, p = stats.spearmanr(lumped, clear)
+    r, rp = stats.pearsonr(lumped, clear)
+    results["rank_correlation"] = {
+        "spearman": float(rho),
+        "p": float(p),
+        "pearson": float(r),
+        "pearson_p": float(rp),
+        "n": len(both),
+    }
+    fit = stats.linregress(lumped, clear)
+    t = float(stats.t.ppf(0.975, len(both) - 2))
+    results["slope"] = {
+        "clearance_per_lumped": float(fit.slope),
+        "ci": [float(fit.slope - t * fit.stderr), float(fit.slope + t * fit.stderr)],
+        "intercept_N": float(fit.intercept),
+    }
+
+
+def report(results: dict) -> None:
+    keys = ("rank_correlation", "spread", "slope")
+    print(json.dumps({k: results[k] for k in keys if k in results}, indent=1))
+    best = results["best_iso_clearance"]
+    for name, d in results["designs"].items():
+        if "against_best_iso" in d:
+            a = d["against_best_iso"]
+            print(
+                f"{name:22s} vs {best}: {100 * a['relative']:+.1f} % "
+                f"[{a['ci'][0]:+.0f}, {a['ci'][1]:+.0f}] N"
+            )
+
+
 def chart(results: dict, path) -> None:
     import matplotlib.pyplot as plt
 
@@ -126,7 +187,14 @@ def chart(results: dict, path) -> None:
         )
         ax.annotate(name, (lu["mean"], c["mean"]), fontsize=7, xytext=(4, 4),
                     textcoords="offset points")  # fmt: skip
-    rho = results["rank_correlation"]
+    rho = results.get("rank_correlation", {"spearman": np.nan, "p": np.nan, "n": 0})
+    if "slope" in results:
+        sl = results["slope"]
+        x = np.array(ax.get_xlim())
+        ax.plot(x, sl["intercept_N"] + sl["clearance_per_lumped"] * x, "k--", lw=0.8,
+                label=f"least squares: slope {sl['clearance_per_lumped']:.2f} "
+                f"[{sl['ci'][0]:.2f}, {sl['ci'][1]:.2f}]")  # fmt: skip
+        ax.legend(fontsize=8, loc="upper left")
     ax.set_xlabel("lumped chain: mean per-engagement peak [N] (95 % CI)")
     ax.set_ylabel("clearance chain: mean per-engagement peak [N] (95 % CI)")
     ax.set_title(
@@ -157,7 +225,20 @@ def main(argv=None) -> dict:
     ap.add_argument("--random", type=int, default=6, help="random designs from the design box")
     ap.add_argument("--rpm", type=float, default=1500.0, help="driver speed [rpm]")
     ap.add_argument("--wear", type=float, default=0.02, help="chain elongation (0.02 = 2 %%)")
+    ap.add_argument(
+        "--replot",
+        action="store_true",
+        help="recompute the statistics and the chart from --out's clearance_design.json",
+    )
     args = parse(ap, argv)
+    if args.replot:
+        path = args.out / "clearance_design.json"
+        results = json.loads(path.read_text())
+        summarize(results)
+        report(results)
+        path.write_text(json.dumps(results, indent=1))
+        chart(results, args.out / "clearance_design.png")
+        return results
     start = time.perf_counter()
     results = header("clearance_design", argv)
     engagements, n_random = args.engagements, args.random
@@ -199,49 +280,8 @@ def main(argv=None) -> dict:
         d[f"{fidelity}_run"] = row
         if len(row["peaks_N"]) >= 2:
             d[fidelity] = stats_of(row["peaks_N"])
-    iso = [
-        n
-        for n in results["designs"]
-        if n.startswith("ISO") and "clearance" in results["designs"][n]
-    ]
-    best = min(iso, key=lambda n: results["designs"][n]["clearance"]["mean"])
-    results["best_iso_clearance"] = best
-    base = results["designs"][best]["clearance_run"]["peaks_N"]
-    for name, d in results["designs"].items():
-        if "clearance" in d and name != best:
-            c = jc.compare_peaks(base, d["clearance_run"]["peaks_N"])
-            d["against_best_iso"] = {
-                "difference_N": c.difference,
-                "relative": c.relative,
-                "ci": [c.ci_low, c.ci_high],
-                "excludes_zero": bool(c.excludes_zero),
-            }
-    both = [d for d in results["designs"].values() if "clearance" in d and "lumped" in d]
-    lumped = [d["lumped"]["mean"] for d in both]
-    clear = [d["clearance"]["mean"] for d in both]
-    rho, p = stats.spearmanr(lumped, clear) if len(both) > 2 else (float("nan"), float("nan"))
-    r, rp = stats.pearsonr(lumped, clear) if len(both) > 2 else (float("nan"), float("nan"))
-    half = [0.5 * (d["clearance"]["ci"][1] - d["clearance"]["ci"][0]) for d in both]
-    results["rank_correlation"] = {
-        "spearman": float(rho),
-        "p": float(p),
-        "pearson": float(r),
-        "pearson_p": float(rp),
-        "n": len(both),
-    }
-    results["spread"] = {
-        "clearance_means_N": [min(clear), max(clear)],
-        "clearance_ci_half_width_N": [min(half), max(half)],
-        "lumped_means_N": [min(lumped), max(lumped)],
-    }
-    print(json.dumps({k: results[k] for k in ("rank_correlation", "spread")}, indent=1))
-    for name, d in results["designs"].items():
-        if "against_best_iso" in d:
-            a = d["against_best_iso"]
-            print(
-                f"{name:22s} vs {best}: {100 * a['relative']:+.1f} % "
-                f"[{a['ci'][0]:+.0f}, {a['ci'][1]:+.0f}] N"
-            )
+    summarize(results)
+    report(results)
     return finish(results, args.out, "clearance_design", chart, start)
 
 

@@ -92,11 +92,14 @@ class Sprocket(eqx.Module):
         contact_slots=None,
         take_up_vector=None,
         sense=1,
+        torque_load=None,
     ):
         self.profile = profile
         self.centre = jnp.asarray(centre, dtype=float)
         self.speed = jnp.asarray(speed, dtype=float)
         self.inertia = jnp.asarray(inertia, dtype=float)
+        if torque_load is not None:  # the field itself (dataclasses.replace passes it)
+            load_torque = torque_load
         if isinstance(load_torque, AbstractLoad) and not (
             is_concrete(load_ramp) and not np.any(np.asarray(load_ramp))
         ):

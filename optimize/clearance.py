@@ -18,6 +18,8 @@ import jaxchain as jc
 
 from .problem import Problem, solve_threads
 
+__all__ = ["remeasure", "points_for", "lines", "measure", "strand"]
+
 DISCARD = 2  # tooth periods of start transient left out of the statistics
 STEPS_PER_PERIOD = 25_000  # step budget per tooth period (Dahl joints: ~5 k at 1250 rpm)
 POINTS = ("worst", "all")
@@ -176,11 +178,3 @@ def lines(c: dict, names: dict) -> list[str]:
             parts.append(text)
         out.append(head + " " + "; ".join(parts))
     return out
-
-
-def horizon_periods(engagements: int) -> int:
-    """Tooth periods one clearance solve covers."""
-    return engagements + DISCARD + 1
-
-
-__all__ = ["remeasure", "points_for", "lines", "measure", "strand", "horizon_periods"]

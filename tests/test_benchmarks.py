@@ -331,3 +331,23 @@ def test_clearance_peak_quick(tmp_path):
         s = v[name]["statistics"]
         assert s["ci_low"] <= s["mean"] <= s["ci_high"] and s["max"] >= s["p95"]
     assert (tmp_path / "clearance_peak.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_clearance_design_quick(tmp_path):
+    """Two ISO forms in both chains: per-engagement statistics for each, the difference
+    against the better ISO form with its interval, and the chart."""
+    from benchmarks.clearance_design import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    rows = res["designs"]
+    assert set(rows) == {"ISO min", "ISO max"}
+    for row in rows.values():
+        for fidelity in ("clearance", "lumped"):
+            assert row[f"{fidelity}_run"]["ok"]
+            s = row[fidelity]
+            assert s["n"] >= 2 and s["ci"][0] < s["mean"] < s["ci"][1]
+    other = next(n for n in rows if n != res["best_iso_clearance"])
+    d = rows[other]["against_best_iso"]
+    assert d["ci"][0] < d["difference_N"] < d["ci"][1]
+    assert (tmp_path / "clearance_design.png").stat().st_size > 10_000

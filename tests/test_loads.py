@@ -2,6 +2,7 @@
 holding a load at its start value, the energy balance counting the loads' work, and a load
 defined in this file alone."""
 
+import dataclasses
 import math
 
 import equinox as eqx
@@ -130,6 +131,8 @@ def test_load_counts_in_the_running_direction():
     # turned 0.2 rad clockwise from its start
     assert float(cam.load(0.0, 0.8, -3.0)) == pytest.approx(-float(CAM.torque(0.0, 0.2, 3.0)))
     assert float(cam.load_torque) == -2.0
+    again = dataclasses.replace(cam, contact_slots=4)  # a field replaced, the load kept
+    assert again.torque_load is cam.torque_load and again.sense == -1
     with pytest.raises(ValueError, match="sense must be"):
         jc.Sprocket(prof, [0.0, 0.0], 1.0, sense=0)
 
