@@ -109,7 +109,7 @@ class DesignSpace(eqx.Module):
         self.upper = jnp.asarray(hi)
         self.names = names
         self.shapes = shapes
-        if names == PARAMETERS and isinstance(template, ToothProfile):
+        if names == PARAMETERS:  # (the template was checked to be an ISO profile)
             _check_box(template, lo, hi)
         else:
             _check_box_sampled(self)

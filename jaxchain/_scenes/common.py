@@ -179,20 +179,24 @@ def as_load(name: str, value, speed: float) -> tuple[AbstractLoad | float, float
     return value, value
 
 
-def as_loads(name: str, value, speeds) -> tuple[tuple, tuple[float, ...]]:
-    """``load_torque`` for the driven sprockets turning at ``speeds`` [rad/s]: one number or
-    load for every one, or one per driven sprocket. (loads, torques held at the start)."""
-    n = len(speeds)
+def per_driven(name: str, value, n: int) -> list[tuple[str, object]]:
+    """(name, value) for each of the ``n`` driven sprockets: one value for every one, or a
+    sequence of one per driven sprocket (its length checked; names indexed)."""
     if isinstance(value, Sequence | np.ndarray) and not isinstance(value, (str, bytes)):
         if len(value) != n:
             raise ValueError(
                 f"{name} must be one value for every driven sprocket or one per driven "
                 f"sprocket ({n} for {n + 1} sprockets), got {len(value)}: {tuple(value)!r}"
             )
-        given = zip(value, speeds, strict=True)
-        pairs = [as_load(f"{name}[{k}]", v, w) for k, (v, w) in enumerate(given)]
-    else:
-        pairs = [as_load(name, value, w) for w in speeds]
+        return [(f"{name}[{k}]", v) for k, v in enumerate(value)]
+    return [(name, value)] * n
+
+
+def as_loads(name: str, value, speeds) -> tuple[tuple, tuple[float, ...]]:
+    """``load_torque`` for the driven sprockets turning at ``speeds`` [rad/s]: one number or
+    load for every one, or one per driven sprocket. (loads, torques held at the start)."""
+    given = zip(per_driven(name, value, len(speeds)), speeds, strict=True)
+    pairs = [as_load(label, v, w) for (label, v), w in given]
     return tuple(p[0] for p in pairs), tuple(p[1] for p in pairs)
 
 

@@ -24,6 +24,7 @@ from .common import (
     check_profile,
     contact_slots,
     disc_inertia,
+    per_driven,
     stretch_of,
     worn,
 )
@@ -46,18 +47,11 @@ __all__ = ["loop_drive", "span_tensions"]
 
 
 def _per_driven(name: str, value, n: int, unit: str, *, lo_open: bool) -> tuple[float, ...]:
-    """A scalar for every driven sprocket, or one value per driven sprocket (n of them)."""
-    if isinstance(value, Sequence | np.ndarray) and not isinstance(value, (str, bytes)):
-        if len(value) != n:
-            raise ValueError(
-                f"{name} must be one value for every driven sprocket or one per driven "
-                f"sprocket ({n} for {n + 1} sprockets), got {len(value)}: {tuple(value)!r}"
-            )
-        return tuple(
-            checks.real(f"{name}[{k}]", v, lo=0.0, lo_open=lo_open, unit=unit)
-            for k, v in enumerate(value)
-        )
-    return (checks.real(name, value, lo=0.0, lo_open=lo_open, unit=unit),) * n
+    """A number ≥ 0 for every driven sprocket, or one per driven sprocket (n of them)."""
+    return tuple(
+        checks.real(label, v, lo=0.0, lo_open=lo_open, unit=unit)
+        for label, v in per_driven(name, value, n)
+    )
 
 
 def span_tensions(
