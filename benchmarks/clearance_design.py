@@ -41,11 +41,10 @@ from scipy import stats  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
 from benchmarks._cli import finish, header, parse, parser, save_chart  # noqa: E402
+from optimize.clearance import DISCARD, measure  # noqa: E402
 
 CHAIN, TEETH, TENSION, BASE_RPM = "08B", 18, 1000.0, 1000.0
-DISCARD = 2  # tooth periods of start transient
 LUMPED_ENGAGEMENTS = 8
-STEPS_PER_PERIOD = 25_000
 DELIVERED = Path(__file__).parent / "results" / "optimize_default" / "profile.json"
 
 
@@ -64,36 +63,6 @@ def designs(n_random: int) -> dict:
         frac = rng.uniform(0.02, 0.98, space.size)
         out[f"random {i}"] = space.profile(np.log(frac / (1 - frac)))
     return out
-
-
-def measure(profile, fidelity: str, rpm: float, wear: float, engagements: int) -> dict:
-    """Per-engagement peaks [N] on the strand (``engagements`` after the discarded start)."""
-    n_entry = engagements + DISCARD + 1
-    scene = jc.scenes.engagement(
-        CHAIN,
-        TEETH,
-        speed_rpm=rpm,
-        tension=TENSION,
-        fidelity=fidelity,
-        profile=profile,
-        n_entry=n_entry,
-        elongation=wear,
-    )
-    period = 60.0 / (rpm * TEETH)
-    t1 = n_entry * period
-    obs = jc.observers.EngagementPeaks.for_solve(scene, t1)
-    t = time.perf_counter()
-    sol = jc.simulate(
-        scene, t1, n_save=2, observers=(obs,), max_steps=STEPS_PER_PERIOD * n_entry, throw=False
-    )
-    peaks = jc.engagement_peaks(sol, t_start=DISCARD * period).peak if sol.ok else []
-    return {
-        "ok": bool(sol.ok),
-        "message": sol.message,
-        "steps": int(sol.stats["num_accepted_steps"]),
-        "wall_s": time.perf_counter() - t,
-        "peaks_N": np.asarray(peaks).tolist(),
-    }
 
 
 def stats_of(peaks) -> dict:
@@ -263,7 +232,16 @@ def main(argv=None) -> dict:
 
     def one(job):
         name, fidelity, n = job
-        row = measure(chosen[name], fidelity, args.rpm, args.wear, n)
+        row = measure(
+            chosen[name],
+            chain=CHAIN,
+            teeth=TEETH,
+            rpm=args.rpm,
+            tension=TENSION,
+            wear=args.wear,
+            engagements=n,
+            fidelity=fidelity,
+        )
         print(
             f"  {name:22s} {fidelity:9s}: {row['steps']} steps, {row['wall_s']:.0f} s, "
             f"{len(row['peaks_N'])} engagements"

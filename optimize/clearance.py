@@ -18,35 +18,40 @@ import jaxchain as jc
 
 from .problem import Problem, solve_threads
 
-__all__ = ["remeasure", "points_for", "lines", "measure", "strand"]
+__all__ = ["remeasure", "points_for", "lines", "measure"]
 
 DISCARD = 2  # tooth periods of start transient left out of the statistics
 STEPS_PER_PERIOD = 25_000  # step budget per tooth period (Dahl joints: ~5 k at 1250 rpm)
 POINTS = ("worst", "all")
 
 
-def strand(problem: Problem, profile, speed_factor: float, wear: float, engagements: int):
-    """The clearance strand at one operating point: ``engagements`` rollers mesh after the
-    discarded start (one more to close the last window)."""
-    s = problem.settings
-    return jc.scenes.engagement(
-        problem.chain,
-        s.teeth,
-        speed_rpm=s.speed_rpm * speed_factor,
-        tension=s.load,
-        fidelity="clearance",
+def measure(
+    profile,
+    *,
+    chain,
+    teeth: int,
+    rpm: float,
+    tension: float,
+    wear: float,
+    engagements: int,
+    fidelity: str = "clearance",
+) -> dict:
+    """Per-engagement peaks [N] of ``profile`` on the engagement strand (the builder's
+    default joint friction of ``fidelity``; ``engagements`` rollers mesh after the
+    discarded start, one more closes the last window), with the solve's outcome (Tsit5 at
+    ``simulate``'s default tolerances)."""
+    n_entry = engagements + DISCARD + 1
+    scene = jc.scenes.engagement(
+        chain,
+        teeth,
+        speed_rpm=rpm,
+        tension=tension,
+        fidelity=fidelity,
         profile=profile,
-        n_entry=engagements + DISCARD + 1,
+        n_entry=n_entry,
         elongation=wear,
     )
-
-
-def measure(problem: Problem, profile, speed_factor: float, wear: float, engagements: int):
-    """Per-engagement peaks [N] of ``profile`` at one operating point, with the solve's
-    outcome (Tsit5 at ``simulate``'s default tolerances)."""
-    scene = strand(problem, profile, speed_factor, wear, engagements)
-    period = problem.tooth_period / speed_factor
-    n_entry = engagements + DISCARD + 1
+    period = 60.0 / (rpm * teeth)
     t1 = n_entry * period
     observer = jc.observers.EngagementPeaks.for_solve(scene, t1)
     t = time.perf_counter()
@@ -99,9 +104,19 @@ def remeasure(
     mean)."""
     jobs = [(name, f, e) for f, e in points for name in designs]
 
+    s = problem.settings
+
     def one(job):
         name, f, e = job
-        return measure(problem, designs[name], f, e, engagements)
+        return measure(
+            designs[name],
+            chain=problem.chain,
+            teeth=s.teeth,
+            rpm=s.speed_rpm * f,
+            tension=s.load,
+            wear=e,
+            engagements=engagements,
+        )
 
     threads = min(solve_threads() if threads is None else threads, len(jobs))
     if threads > 1:
