@@ -104,8 +104,9 @@ class Sprocket(eqx.Module):
             is_concrete(load_ramp) and not np.any(np.asarray(load_ramp))
         ):
             raise ValueError(
-                "Sprocket: load_ramp applies to a number; give a load object "
-                "(load_torque=jc.loads....) with its own time dependence, load_ramp=0"
+                "Sprocket: load_ramp applies to a number load_torque; a jc.loads load carries "
+                "its own time dependence (jc.loads.Ramped(value, duration) ramps one in): "
+                "leave load_ramp at 0"
             )
         if is_concrete(load_ramp) and np.any(np.asarray(load_ramp) < 0):
             raise ValueError(f"Sprocket: load_ramp must be >= 0 s, got {load_ramp}")
