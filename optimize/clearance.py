@@ -10,13 +10,12 @@ difference of the means against the baseline with Welch's interval."""
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 import jaxchain as jc
 
-from .problem import Problem, solve_threads
+from .problem import Problem, solve_all
 
 __all__ = ["remeasure", "points_for", "lines", "measure"]
 
@@ -118,12 +117,7 @@ def remeasure(
             engagements=engagements,
         )
 
-    threads = min(solve_threads() if threads is None else threads, len(jobs))
-    if threads > 1:
-        with ThreadPoolExecutor(threads) as pool:
-            rows = list(pool.map(one, jobs))
-    else:
-        rows = [one(job) for job in jobs]
+    rows = solve_all(one, jobs, threads)
     by = {job: row for job, row in zip(jobs, rows, strict=True)}
     members = []
     for f, e in points:

@@ -400,6 +400,16 @@ def solve_threads() -> int:
         return os.cpu_count() or 1
 
 
+def solve_all(solve, jobs: list, threads: int | None = None) -> list:
+    """``solve(job)`` of every job, in order, ``threads`` at a time (default
+    :func:`solve_threads`): independent XLA solves, one per core."""
+    threads = min(solve_threads() if threads is None else threads, len(jobs))
+    if threads > 1:
+        with ThreadPoolExecutor(threads) as pool:
+            return list(pool.map(solve, jobs))
+    return [solve(job) for job in jobs]
+
+
 def remeasure(problem: Problem, profile, *, law: str = "johnson", rtol: float | None = None):
     """Independent check of one design: fresh settled scene(s), Dopri8 (the optimization
     used fixed-step Tsit5), tight tolerances, the *sharp* maximum of the roller/tooth force
@@ -451,12 +461,7 @@ def remeasure_many(
             "torque": np.asarray(sol.sprocket_torque)[:, 0],
         }
 
-    threads = min(solve_threads() if threads is None else threads, len(jobs))
-    if threads > 1:
-        with ThreadPoolExecutor(threads) as pool:
-            rows = list(pool.map(solve, jobs))
-    else:
-        rows = [solve(job) for job in jobs]
+    rows = solve_all(solve, jobs, threads)
     out = []
     for i in range(len(designs)):
         members = [r for job, r in zip(jobs, rows, strict=True) if job[0] == i]
