@@ -10,6 +10,7 @@ from . import (
     contact as contact,
     design as design,
     distributed as distributed,
+    elements as elements,
     loads as loads,
     observers as observers,
     scenes as scenes,
@@ -35,12 +36,6 @@ from ._ensemble import (
     EnsembleSolution as EnsembleSolution,
     simulate_ensemble as simulate_ensemble,
 )
-from ._freeform import Flank as Flank, FreeformProfile as FreeformProfile
-from ._gap import (
-    gap_contact as gap_contact,
-    nearest_gap as nearest_gap,
-    signed_distance as signed_distance,
-)
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
 from ._options import DEFAULT_DT0 as DEFAULT_DT0, SolveOptions as SolveOptions
 from ._plot import plot_profiles as plot_profiles, plot_sprocket as plot_sprocket
@@ -51,13 +46,19 @@ from ._plot_drive import (
     plot_speed as plot_speed,
     plot_tensions as plot_tensions,
 )
-from ._profile import (
-    AbstractProfile as AbstractProfile,
+from ._profiles.base import AbstractProfile as AbstractProfile, AbstractShape as AbstractShape
+from ._profiles.contact import (
+    gap_contact as gap_contact,
+    nearest_gap as nearest_gap,
+    signed_distance as signed_distance,
+)
+from ._profiles.freeform import Flank as Flank, FreeformProfile as FreeformProfile
+from ._profiles.io import load_profile as load_profile
+from ._profiles.iso import (
     ProfileGeometry as ProfileGeometry,
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,
 )
-from ._profile_io import load_profile as load_profile
 from ._result import (
     Result as Result,
     SolveError as SolveError,

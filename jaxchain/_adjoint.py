@@ -11,7 +11,7 @@ import jax
 
 __all__ = ["StepResidualsAdjoint"]
 
-# states per step the residuals are reckoned at (12 and 22 measured; see the class)
+# states per step the residuals are reckoned at (see the class)
 RESIDUAL_STATES = 24
 
 
@@ -34,22 +34,19 @@ class StepResidualsAdjoint(diffrax.AbstractAdjoint):
     it. Here the solve's steps are one ``lax.scan`` of exactly ``max_steps`` iterations
     (each a no-op once the solve has ended), which JAX differentiates as it does any scan:
     the forward pass keeps what each step's pullback needs, and the backward pass runs
-    only the pullbacks. On the design objective (08B engagement, fixed 4 µs Tsit5 steps,
-    ``benchmarks/gradient_cost.py``) value + gradient takes 13–14 % less time than with
-    every step checkpointed (3.5× the value instead of 4.1× in the ISO box, 4.2× instead of
-    4.9× over 36 and 72 per-gap coordinates), at the same gradient, for about 12 states of
-    memory per step instead of one.
+    only the pullbacks: less time than with every step checkpointed, at the same gradient,
+    for some tens of states of memory per step instead of one
+    (``benchmarks/gradient_cost.py`` measures both).
 
     For fixed steps only (``diffrax.ConstantStepSize``), with ``max_steps`` the solve's
     step count (``SolveOptions(dt=...)`` sets both, and uses this adjoint by default):
     iterations past the solve's end are skipped alone but computed and discarded in a
-    vmapped batch, so a larger budget can be paid in full.
-    A solve that is not differentiated runs at the speed of diffrax's own loop (−3 to +7 %
-    measured on the design objective).
+    vmapped batch, so a larger budget can be paid in full. A solve that is not
+    differentiated runs at the speed of diffrax's own loop.
 
-    The residuals grow with the steps: measured 12 states per step on the design objective,
-    22 on a closed drive's mesh-order objective (360 states: 65 kB per step, 1.2 GB over
-    1.2 revolutions in 4 µs steps). Where :data:`RESIDUAL_STATES` states per step
+    The residuals grow with the steps (an engagement's design objective keeps about 12
+    states per step, a closed drive's mesh-order objective 22). Where
+    :data:`RESIDUAL_STATES` states per step
     would pass ``memory_limit`` [bytes, per solve: each member of a vmapped ensemble
     counts], the solve is differentiated by recursive checkpointing instead — each step's
     input kept (``RecursiveCheckpointAdjoint(checkpoints=max_steps)``) where that fits the

@@ -16,7 +16,6 @@ from jaxtyping import Array, ArrayLike, Float
 
 from . import _checks as checks, _distributed as dist
 from ._chain import ChainSpec
-from ._freeform import FreeformProfile
 from ._numerics import is_concrete
 from ._observers import (
     EXP_CAP as EXP_CAP,
@@ -28,7 +27,9 @@ from ._observers import (
     window_weight as window_weight,
 )
 from ._options import SolveOptions, with_options
-from ._profile import AbstractProfile, ToothProfile, iso606_limits
+from ._profiles.base import AbstractProfile
+from ._profiles.freeform import FreeformProfile
+from ._profiles.iso import ToothProfile, flank_meeting_diameter, iso606_limits
 from ._result import Result, raise_if_failed
 from ._scene import Scene
 from ._scenes.statics import resettle, statics_jacobian
@@ -86,13 +87,19 @@ class DesignSpace(eqx.Module):
         shapes: Sequence[tuple[int, ...]] | None = None,
     ):
         names = tuple(names)
-        if names == PARAMETERS:
-            checks.instance("template", template, ToothProfile, "a jc.ToothProfile")
-        else:
-            checks.instance(
-                "template", template, AbstractProfile,
-                "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
-            )  # fmt: skip
+        checks.instance(
+            "template", template, AbstractProfile,
+            "a jc.ToothProfile, jc.FreeformProfile or another jc.AbstractProfile",
+        )  # fmt: skip
+        iso_box = names == PARAMETERS
+        if iso_box:  # the ISO 606 four: leaves of the template's own
+            missing = [n for n in names if not _is_leaf(template, n)]
+            if missing:
+                raise TypeError(
+                    f"the default design box needs the ISO 606 parameters {PARAMETERS}; this "
+                    f"{type(template).__name__} has no {missing}: choose its leaves with "
+                    "DesignSpace.select(template, {path: (lower, upper)})"
+                )
         shapes = tuple(tuple(s) for s in shapes) if shapes is not None else ((),) * len(names)
         n = sum(math.prod(s) for s in shapes)
         lo = np.asarray(lower, dtype=float)
@@ -109,7 +116,7 @@ class DesignSpace(eqx.Module):
         self.upper = jnp.asarray(hi)
         self.names = names
         self.shapes = shapes
-        if names == PARAMETERS:  # (the template was checked to be an ISO profile)
+        if iso_box:
             _check_box(template, lo, hi)
         else:
             _check_box_sampled(self)
@@ -221,6 +228,14 @@ def _leaf(profile, name: str):
     return obj
 
 
+def _is_leaf(profile, name: str) -> bool:
+    try:
+        _leaf(profile, name)
+    except ValueError:
+        return False
+    return True
+
+
 def _leaf_names(profile) -> list[str]:
     paths = jax.tree_util.tree_flatten_with_path(profile)[0]
     return [".".join(str(k.name) for k in path) for path, _ in paths]
@@ -287,8 +302,6 @@ def _check_box(template: ToothProfile, lo: np.ndarray, hi: np.ndarray) -> None:
     where the flanks meet (what the traced geometry does): a box reaching outside the
     profile's own validity (a seat smaller than the roller, an angle in degrees) would
     hand the optimizer outlines that do not exist."""
-    from ._profile import _flank_centre_line_radius, _np_geometry_of
-
     for pick in itertools.product((0, 1), repeat=4):
         vals = {n: (lo, hi)[i][k] for k, (n, i) in enumerate(zip(PARAMETERS, pick, strict=True))}
         kw = dict(
@@ -298,7 +311,7 @@ def _check_box(template: ToothProfile, lo: np.ndarray, hi: np.ndarray) -> None:
             **vals,
         )
         try:
-            reach = 2 * _flank_centre_line_radius(_np_geometry_of(**kw), vals["flank_radius"])
+            reach = flank_meeting_diameter(**kw)
             kw["tip_diameter"] = min(vals["tip_diameter"], reach * (1 - 1e-9))
             ToothProfile(**kw)
         except (ValueError, FloatingPointError) as e:
@@ -579,8 +592,7 @@ class ProfileObjective:
     every member's scenes, or this process's share
     (:func:`jaxchain.distributed.local_members`) so that each process builds only its own.
     The default (a reverse pass through the combination) agrees with it to round-off of
-    the backward pass (1.5e-11 of the largest gradient entry measured on a 3-member
-    soft maximum).
+    the backward pass.
 
     A member whose solve failed makes the evaluation fail: ``RuntimeError`` naming the
     members and what to change (``throw=True``, the default), or with ``throw=False`` a

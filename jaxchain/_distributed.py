@@ -164,7 +164,7 @@ def _exit_now(hook, kind, value, tb):
 
 
 @functools.cache
-def _mesh_of(devices: tuple) -> Mesh:
+def mesh_of(devices: tuple) -> Mesh:
     return Mesh(np.asarray(devices, dtype=object), (MEMBER_AXIS,))
 
 
@@ -172,7 +172,7 @@ def global_mesh() -> Mesh:
     """A one-axis mesh of every process's devices, in process order (one process: its
     local devices)."""
     devices = sorted(jax.devices(), key=lambda d: (d.process_index, d.id))
-    return _mesh_of(tuple(devices))
+    return mesh_of(tuple(devices))
 
 
 def spans_processes(mesh: Mesh) -> bool:

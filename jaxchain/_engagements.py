@@ -150,9 +150,7 @@ class EngagementPeaks(AbstractStepObserver):
     over the samples of elementwise updates of (S, R) arrays; the state holds 4·S·R·K
     numbers. The window and threshold are array leaves (new values do not retrace); the
     observer is vmappable with the solve. The peaks carry gradients (through the
-    parabola tops; which samples make an event is a selection): on the engagement strand
-    a meshing peak's derivative in the driver speed by AD, 20.708 N·s/rad, against
-    central differences 20.709 (fixed steps of 1 µs).
+    parabola tops; which samples make an event is a selection).
 
     Attributes:
         window: each event's window, in tooth periods of its sprocket (> 0).

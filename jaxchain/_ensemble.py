@@ -26,15 +26,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
-from jaxtyping import Array, ArrayLike, Float, Int
+from jaxtyping import Array, ArrayLike
 
 from . import _checks as checks, _distributed as dist
 from ._distributed import LocalMembers
 from ._observers import PeakRecord
 from ._options import Resolved, SolveOptions, with_options
-from ._result import Result, raise_if_failed, result_messages, result_names
+from ._result import raise_if_failed
 from ._scene import Scene
-from ._simulate import Solution, peak_of, time_span
+from ._simulate import Solution, peak_of, split_saved, time_span
 from ._solve import check_horizon, solve, strong_scene
 from ._stack import stack, take as _take
 
@@ -51,119 +51,9 @@ def _n_members(scenes: Scene) -> int:
 
 
 # ---------------------------------------------------------------------------- solution
-class EnsembleSolution(eqx.Module):
-    """Named outputs of an ensemble, member axis first (members in the order given).
-
-    Attributes:
-        ts: (T,) save times [s] (shared).
-        roller_position, roller_velocity: (M, T, R, 2).
-        roller_sprocket_force: (M, T, R) [N].
-        link_tension: (M, T, L) [N].
-        sprocket_speed, sprocket_angle, sprocket_torque: (M, T, S).
-        peak_contact_force: (M,) each member's peak roller/tooth force [N].
-        result: :class:`~jaxchain.Result` per member (value shape (M,)); see ``messages``.
-        stats: solver statistics, each (M,).
-        y1: final states, member axis first.
-        steps: (M,) steps each member took (accepted + rejected): the work it needed.
-        accepted_steps: (M,) accepted steps per member.
-        steps_executed: steps the batched loops executed: over groups and devices, the
-            slice size times the slowest member's steps (padding included).
-        waste: ``steps_executed / sum(steps)`` (1: no step thrown away).
-        predicted_steps: (M,) the pilot's (or the given) cost estimate, or None.
-        groups: the member indices of each group, in the order run (static).
-        batch_sizes: each group's padded batch size (static).
-        n_devices: devices the member axis was split across (static).
-        roller_shoe_force, tensioner_angle, tensioner_force, tensioner_torque,
-        guide_force: as in :class:`~jaxchain.Solution`, member axis first (None for
-            scenes without shoes or tensioners).
-    """
-
-    ts: Float[Array, " T"]
-    roller_position: Float[Array, "M T R 2"]
-    roller_velocity: Float[Array, "M T R 2"]
-    roller_sprocket_force: Float[Array, "M T R"]
-    link_tension: Float[Array, "M T L"]
-    sprocket_speed: Float[Array, "M T S"]
-    sprocket_angle: Float[Array, "M T S"]
-    sprocket_torque: Float[Array, "M T S"]
-    peak_contact_force: Float[Array, " M"]
-    result: Result
-    stats: dict
-    y1: object
-    steps: Int[Array, " M"]
-    accepted_steps: Int[Array, " M"]
-    steps_executed: Int[Array, ""]
-    waste: Float[Array, ""]
-    predicted_steps: Float[Array, " M"] | None
-    groups: tuple[tuple[int, ...], ...] = eqx.field(static=True)
-    batch_sizes: tuple[int, ...] = eqx.field(static=True)
-    n_devices: int = eqx.field(static=True)
-    roller_shoe_force: Float[Array, "M T R"] | None = None
-    tensioner_angle: Float[Array, "M T A"] | None = None
-    tensioner_force: Float[Array, "M T A"] | None = None
-    tensioner_torque: Float[Array, "M T A"] | None = None
-    guide_force: Float[Array, "M T G"] | None = None
-
-    @property
-    def n_members(self) -> int:
-        return int(np.shape(self.peak_contact_force)[0])
-
-    @property
-    def successful(self) -> np.ndarray:
-        """(M,) bool: which members succeeded."""
-        return np.asarray(self.result == Result.successful)
-
-    @property
-    def ok(self) -> bool:
-        """Whether every member succeeded."""
-        return bool(np.all(self.successful))
-
-    @property
-    def failed(self) -> list[int]:
-        """Indices of the members that did not succeed."""
-        return [int(i) for i in np.nonzero(~self.successful)[0]]
-
-    @property
-    def messages(self) -> list[str]:
-        """Per member: what happened and what to change ("" when successful)."""
-        return result_messages(self.result)
-
-    @property
-    def result_names(self) -> list[str]:
-        """Per member: the :class:`~jaxchain.Result` name ("successful", "diverged", …)."""
-        return result_names(self.result)
-
-    def member(self, i: int) -> Solution:
-        """Member ``i`` as a :class:`~jaxchain.Solution`."""
-        m = self.n_members
-        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -m <= i < m:
-            raise IndexError(f"member index must be an integer in [-{m}, {m}), got {i!r}")
-        pick = lambda x: x[i] if eqx.is_array(x) else x
-        fields = {
-            f: pick(getattr(self, f))
-            for f in (
-                "roller_position",
-                "roller_velocity",
-                "roller_sprocket_force",
-                "link_tension",
-                "sprocket_speed",
-                "sprocket_angle",
-                "sprocket_torque",
-                "peak_contact_force",
-                "roller_shoe_force",
-                "tensioner_angle",
-                "tensioner_force",
-                "tensioner_torque",
-                "guide_force",
-            )
-        }
-        return Solution(
-            ts=self.ts,
-            result=jax.tree_util.tree_map(pick, self.result),
-            stats=jax.tree_util.tree_map(pick, self.stats),
-            y1=jax.tree_util.tree_map(pick, self.y1),
-            **fields,
-        )
+EnsembleSolution = Solution
+"""An ensemble's solution: a :class:`~jaxchain.Solution` with a leading member axis (the
+name is kept for code written against it)."""
 
 
 # ---------------------------------------------------------------------------- devices
@@ -175,7 +65,7 @@ def _resolve_mesh(mesh, sharding) -> Mesh:
             raise ValueError(f'sharding must be None or "auto", got {sharding!r}')
         return dist.global_mesh()  # one process: its local devices
     if mesh is None:  # one device, same code path
-        return dist._mesh_of((jax.local_devices()[0],))
+        return dist.mesh_of((jax.local_devices()[0],))
     if not isinstance(mesh, Mesh) or len(mesh.axis_names) != 1:
         raise ValueError(
             "mesh must be a jax.sharding.Mesh with one axis (the member axis), got "
@@ -478,13 +368,13 @@ def simulate_ensemble(
     )
 
 
-def _solution(out, ts, executed, throw: bool, **layout) -> EnsembleSolution:
+def _solution(out, ts, executed, throw: bool, **layout) -> Solution:
     """The ensemble's solution from its merged batch output ``out`` (raising on a failed
     member if ``throw``); ``layout``: how the members were batched."""
     saved, result, stats = out.saved, out.result, out.stats
     if throw:
         saved = raise_if_failed(result, saved, "simulate_ensemble")
-    return EnsembleSolution(
+    return Solution(
         ts=ts,
         peak_contact_force=peak_of(saved, out.observed[0]),
         result=result,
@@ -495,7 +385,7 @@ def _solution(out, ts, executed, throw: bool, **layout) -> EnsembleSolution:
         steps_executed=executed,
         waste=executed / jnp.sum(stats["num_steps"]),
         **layout,
-        **saved,
+        **split_saved(saved),
     )
 
 

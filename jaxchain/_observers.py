@@ -113,17 +113,9 @@ class PeakRecord(AbstractStepObserver):
     ``samples + 1`` samples, 5 by default; the step's top is the largest
     :func:`~jaxchain._numerics.parabola_max` over consecutive sample triples (never below
     a sample, continuous in them). The step ends alone miss the top of a short impact by
-    up to the step's share of it; on the engagement (2 tooth periods, peak 1593 N) the
-    errors against the converged peak, step ends and midpoints → 5 samples with parabolas:
-
-    ====================  ===================  ====================
-    Tsit5 rtol 1e-5       1.8e-3 → 6.9e-5      +10 % time
-    Tsit5 rtol 1e-6       1.4e-4 → 2.1e-5      +25 %
-    Tsit5 rtol 1e-7       6.1e-4 → 1.2e-5      +26 %
-    Dopri8 rtol 1e-6      1.9e-3 → 1.9e-4      +16 %
-    ====================  ===================  ====================
-
-    At rtol ≥ 1e-4 the state's own error dominates and the sampling changes nothing. The
+    up to the step's share of it; the samples take the peak's error down by about an
+    order of magnitude at the tolerances a meshing study uses
+    (``benchmarks/work_precision.py`` charts error against time for each solver). The
     cost is ``samples − 1`` roller-contact evaluations per step, in one vmapped call; the
     running max needs no per-step buffer. NaN in any sample propagates (a blown-up step
     is reported, never skipped).
@@ -294,19 +286,16 @@ class SampledSoftPeak(AbstractStepObserver):
     can be longer than the soft maximum's spike.
 
     Near the top F_max of an impact the integrand exp((F − F_ref)/τ) is a spike of
-    width σ ≈ √(τ / |F''|) in time: on the engagement (08B, z = 18, impacts of ~15 µs,
-    τ = 16 N) about 0.5 µs. A fixed step of 4 µs puts Tsit5's six stages ~2 µs apart, so
-    the integrated :class:`SoftPeak` depends on where each spike falls between them: its
-    value carries a ripple in the design parameters (0.5 N, ~5e-3 wide in the main job's
-    coordinates) whose slope, not the trend's, is the gradient (there at 4 µs the sign
-    reversed, at 2 µs 38 % off the 1 µs gradient; sampled 15 % and 4 %). The trapezoid rule on
-    a spike is exact up to ~2·exp(−2π²σ²/h²) for sub-steps h: 8 parts of a 4 µs step
-    (0.5 µs) and 16 give the same gradient within 1e-4 relative, 4 parts one 23 % off.
-    Adaptive solves resolve the spike by their error control and should use
-    :class:`SoftPeak`.
+    width σ ≈ √(τ / |F''|) in time, about 0.5 µs for an 08B chain's meshing impact at
+    τ = 16 N. A fixed step longer than that (4 µs puts Tsit5's six stages ~2 µs apart)
+    makes the integrated :class:`SoftPeak` depend on where each spike falls between the
+    stages: its value ripples in the design parameters and the ripple's slope, not the
+    trend's, becomes the gradient. The trapezoid rule on a spike is exact up to
+    ~2·exp(−2π²σ²/h²) for sub-steps h, so sub-steps of about σ give the trend's gradient
+    (``benchmarks/step_convergence.py``). Adaptive solves resolve the spike by their
+    error control and should use :class:`SoftPeak`.
 
-    Cost: ``samples`` roller-contact evaluations per step (one vmapped call); on the main
-    job's objective at 4 µs, value 1.8×, value and gradient 2.2× the integrated form's.
+    Cost: ``samples`` roller-contact evaluations per step (one vmapped call).
 
     Attributes:
         t_start, rise, temperature, reference: as :class:`SoftPeak`'s.

@@ -28,15 +28,11 @@ _MOVIE_SUFFIXES = (".gif", ".mp4")
 def _solution(sol, caller: str, scene=None) -> None:
     """``sol`` must be one solution (and ``scene`` a scene, if given)."""
     if not isinstance(sol, Solution):
-        extra = (
-            "; an ensemble's member i is ens.member(i)"
-            if type(sol).__name__ == "EnsembleSolution"
-            else ""
-        )
         raise TypeError(
-            f"{caller}: sol must be a jc.Solution (from jc.simulate), got "
-            f"{type(sol).__name__}{extra}"
+            f"{caller}: sol must be a jc.Solution (from jc.simulate), got {type(sol).__name__}"
         )
+    if sol.is_ensemble:
+        raise TypeError(f"{caller}: sol is an ensemble's solution; plot one member: sol.member(i)")
     if scene is not None and not isinstance(scene, Scene):
         raise TypeError(f"{caller}: scene must be a jaxchain Scene, got {type(scene).__name__}")
 

@@ -9,6 +9,7 @@ Bodies of the chain are planar rigid bodies with state (x, y, φ): links in the
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import equinox as eqx
@@ -17,11 +18,18 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ._contact.base import AbstractContactLaw
-from ._contact.dahl import DahlFriction
 from ._contact.friction import CoulombFriction
+from ._elements.anchors import Anchors
+from ._elements.base import AbstractElement
+from ._elements.gravity import Gravity
+from ._elements.joint_friction import JointFriction
+from ._elements.pairs import ClearanceJoints, LinkSprings, PairGroup
+from ._elements.rollers import RollerTeeth
+from ._elements.shoes import Shoes
+from ._elements.tensioners import Tensioners
 from ._loads import AbstractLoad, as_load
 from ._numerics import is_concrete
-from ._profile import AbstractProfile
+from ._profiles.base import AbstractProfile
 
 __all__ = [
     "Sprocket",
@@ -172,203 +180,6 @@ class Sprocket(eqx.Module):
             raise ValueError(f"a driven sprocket needs inertia > 0 kg·m², got {self.inertia}")
 
 
-class LinkSprings(eqx.Module):
-    """Bilateral spring-dampers (the elastic links of the lumped chain).
-
-    Tension T = k·(ℓ − ℓ₀) + c·ℓ̇ [N] (> 0 pulls the two points together).
-    """
-
-    stiffness: Float[Array, ...]
-    damping: Float[Array, ...]
-    rest_length: Float[Array, ...]
-
-    def tension(self, length, rate, impact_speed):
-        del impact_speed
-        return self.stiffness * (length - self.rest_length) + self.damping * rate
-
-
-class ClearanceJoints(eqx.Module):
-    """Revolute clearance joints: a pin (point a) inside a hole (point b).
-
-    The eccentricity ℓ = |x_b − x_a| is the pin's offset from the hole centre; contact when
-    ℓ exceeds the radial clearance, with ``law`` (e.g. Johnson's conformal law, whose
-    ``clearance`` field is the radial clearance). Tension T = law(ℓ − c, ℓ̇) ≥ 0.
-
-    With ``friction``, the contact also carries a tangential force at the contact point,
-    against the sliding of the pin's surface (radius ``radius``) on the hole's (radius
-    ``radius + clearance``): the joint's friction moment, about μ·T·radius while it
-    articulates. A :class:`~jaxchain.contact.DahlFriction` keeps one pre-sliding state per
-    joint in ``DriveState.bristle``; a :class:`~jaxchain.contact.CoulombFriction` none.
-    """
-
-    law: AbstractContactLaw
-    clearance: Float[Array, ""]
-    friction: CoulombFriction | DahlFriction | None = None
-    radius: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
-
-    def tension(self, length, rate, impact_speed):
-        return self.law.normal_force(length - self.clearance, rate, impact_speed)
-
-
-class PairGroup(eqx.Module):
-    """Force elements between a point on body ``a`` and a point on body ``b``.
-
-    Attributes:
-        a, b: body indices (P,).
-        ra, rb: the points in the bodies' own frames (P, 2) [m].
-        element: the force law (LinkSprings or ClearanceJoints), fields scalar or (P,).
-        carries_tension: whether these elements transmit the chain's tension (links and
-            pin/bush joints), reported as link tension; False for bush/roller joints.
-    """
-
-    a: Int[Array, " P"]
-    b: Int[Array, " P"]
-    ra: Float[Array, "P 2"]
-    rb: Float[Array, "P 2"]
-    element: LinkSprings | ClearanceJoints
-    carries_tension: bool = eqx.field(static=True, default=True)
-
-
-class JointFriction(eqx.Module):
-    """Friction in the articulating joints of the lumped chain (whose links have no
-    rotational freedom of their own).
-
-    Joint j sits at body ``joint[j]``, between the link from ``before[j]`` and the link
-    to ``after[j]``; its pin (radius ``pin_radius``) turns in its bush at the links'
-    relative rate Ω = φ̇_after − φ̇_before. The friction moment on the link after is
-    M = ``law.force(N·r, r·Ω)`` = −μ·N·r·tanh(r·Ω/v_s), with −M on the link before: the
-    pin/bush contact's Coulomb friction at the sliding speed r·Ω of the pin's surface
-    (with a :class:`~jaxchain.contact.DahlFriction` law, M = −μ·N·r·z/x_s, z the joint's
-    pre-sliding state in ``DriveState.bristle``, driven by the sliding speed r·Ω).
-    N is the joint's load, the mean tension of the two links (``link_before``,
-    ``link_after``: indices into the tension-carrying elements), its positive part
-    smoothed over ±``load_width``. Each moment acts as a couple of forces ±M/ℓ across
-    its link; the power −M·Ω is never positive. At rest (Ω = 0) it adds nothing, so the
-    statics do not change.
-    """
-
-    before: Int[Array, " J"]
-    joint: Int[Array, " J"]
-    after: Int[Array, " J"]
-    link_before: Int[Array, " J"]
-    link_after: Int[Array, " J"]
-    law: CoulombFriction | DahlFriction
-    pin_radius: Float[Array, ""]
-    load_width: Float[Array, ""]
-
-
-class Anchors(eqx.Module):
-    """Tension anchors holding the free ends of an open strand.
-
-    Each anchored body is pulled along the unit direction ``direction`` (pointing away
-    from the sprocket) by ``tension`` plus a soft spring toward a guide point that moves
-    at ``speed`` along that direction (the chain's mean speed there), and is held on the
-    span's line by the same spring across it — a span end running on a guide.
-    """
-
-    body: Int[Array, " A"]
-    origin: Float[Array, "A 2"]
-    direction: Float[Array, "A 2"]
-    speed: Float[Array, " A"]
-    tension: Float[Array, " A"]
-    stiffness: Float[Array, " A"]
-    damping: Float[Array, " A"]
-
-
-class Tensioners(eqx.Module):
-    """Pivoting tensioner arms: rigid arms turning about fixed pivots, each pressed onto
-    the chain by a preloaded torsional spring with a linear (hydraulic-style) damper.
-
-    The arm's angle ψ is part of the ODE state (``DriveState.arm``). Its rotation toward
-    the chain is φ = s·(ψ − ψ_ref) (s = ``sense``, ψ_ref = ``layout_angle``), and the
-    spring and damper turn it toward the chain by τ = preload − stiffness·φ −
-    damping·φ̇ [N·m]. Its shoe is the matching entry of the scene's :class:`Shoes`.
-
-    Attributes:
-        pivot: (A, 2) pivot positions [m], world frame.
-        layout_angle: (A,) the reference angle ψ_ref [rad]: world angle of the line from
-            the pivot to the shoe's middle where the shoe geometry is given.
-        angle0: (A,) the arm angle at t = 0 [rad] (same convention as ``layout_angle``).
-        rate0: (A,) the arm's angular rate at t = 0 [rad/s].
-        inertia: (A,) polar moment of inertia about the pivot [kg·m²], > 0.
-        stiffness: (A,) torsional spring rate [N·m/rad], ≥ 0.
-        damping: (A,) damper rate [N·m·s/rad], ≥ 0.
-        preload: (A,) spring torque toward the chain at ψ_ref [N·m].
-        sense: (A,) +1 if a counter-clockwise turn moves the shoe toward the chain, −1 if
-            a clockwise one does.
-    """
-
-    pivot: Float[Array, "A 2"]
-    layout_angle: Float[Array, " A"]
-    angle0: Float[Array, " A"]
-    rate0: Float[Array, " A"]
-    inertia: Float[Array, " A"]
-    stiffness: Float[Array, " A"]
-    damping: Float[Array, " A"]
-    preload: Float[Array, " A"]
-    sense: Float[Array, " A"]
-
-    @property
-    def count(self) -> int:
-        return int(np.shape(self.pivot)[0])
-
-    def spring_torque(self, angle, rate):
-        """(A,) torque of spring and damper on each arm [N·m], world sense."""
-        phi = self.sense * (angle - self.layout_angle)
-        press = self.preload - self.stiffness * phi - self.damping * self.sense * rate
-        return self.sense * press
-
-
-class Shoes(eqx.Module):
-    """Shoes the chain slides on: tensioner shoes (the first ``n_tensioners``, shoe k on
-    arm k, turning with it about its pivot) then fixed guides.
-
-    Each shoe's working surface is a circular arc of curvature κ (a straight line for κ =
-    0), given at the layout (arm at ``Tensioners.layout_angle``) by its middle point, the
-    unit normal there (pointing from the shoe to the chain) and its half length along
-    the surface. A roller of radius r whose centre lies at distance g from the surface
-    (on the chain side) overlaps it by δ = r − g and is pushed by ``law`` along the
-    surface normal, with ``friction`` against its sliding along the surface. The force
-    is faded out smoothly (C¹) over ``edge`` [m] at the shoe's ends, and over a roller
-    radius for centres deeper than two roller radii behind the surface (the shoe's back:
-    no roller reaches it).
-
-    Attributes:
-        mid: (K, 2) middle point of the surface [m], world frame at the layout.
-        normal: (K, 2) unit surface normal at the middle, toward the chain.
-        curvature: (K,) κ [1/m], ≥ 0 (convex toward the chain; 0: straight).
-        half_length: (K,) half the surface's length [m], measured along it.
-        edge: (K,) fade-out length at the ends [m].
-        law: normal contact law of roller and shoe (every shoe).
-        friction: roller/shoe friction, its fields (K,) (one per shoe), or None.
-        n_tensioners: how many of the shoes ride on tensioner arms (static).
-        slots: rollers checked per shoe, the nearest to its middle; None: all (static).
-            ``simulate`` reports ``Result.contact_slots_exceeded`` if the farthest slot
-            ever comes within half a shoe's length + 1.05 roller radii of its middle.
-    """
-
-    mid: Float[Array, "K 2"]
-    normal: Float[Array, "K 2"]
-    curvature: Float[Array, " K"]
-    half_length: Float[Array, " K"]
-    edge: Float[Array, " K"]
-    law: AbstractContactLaw
-    friction: CoulombFriction | None
-    n_tensioners: int = eqx.field(static=True)
-    slots: int | None = eqx.field(static=True)
-
-    def __check_init__(self):
-        k = self.slots
-        if k is not None and (isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1):
-            raise ValueError(
-                f"Shoes: slots must be an integer >= 1 or None (check every roller), got {k!r}"
-            )
-
-    @property
-    def count(self) -> int:
-        return int(np.shape(self.mid)[0])
-
-
 class Scene(eqx.Module):
     """Everything the vector field needs. Built by :mod:`jaxchain.scenes`.
 
@@ -398,7 +209,10 @@ class Scene(eqx.Module):
         tensioners: tensioner arms, or None.
         shoes: tensioner shoes and fixed guides, or None.
         prepared_shapes: None, except inside a solve: the sprockets' contact shapes
-            computed once before its loop (``jaxchain._dynamics.prepare``).
+            computed once before its loop (``jaxchain._elements.rollers.prepare``).
+        elements: force elements added to the drive's own
+            (:class:`jc.elements.AbstractElement <jaxchain.elements.AbstractElement>`;
+            :meth:`add_elements`).
     """
 
     mass: Float[Array, " N"]
@@ -422,6 +236,30 @@ class Scene(eqx.Module):
     tensioners: Tensioners | None = None
     shoes: Shoes | None = None
     prepared_shapes: Any = None
+    elements: tuple[AbstractElement, ...] = ()
+
+    def __check_init__(self):
+        for el in self.elements:
+            if not isinstance(el, AbstractElement):
+                raise TypeError(
+                    "Scene: elements must be jc.elements.AbstractElement instances, got "
+                    f"{type(el).__name__}"
+                )
+
+    @property
+    def force_elements(self) -> tuple[AbstractElement, ...]:
+        """Every force element of the drive, in the order the equations of motion sum
+        them: the two-point groups (links or joints), the lumped chain's joint friction,
+        the anchors, the roller/tooth contacts, the shoes, the tensioner springs, gravity,
+        then :attr:`elements`."""
+        own = [*self.pairs, self.joint_friction, self.anchors]
+        own += [RollerTeeth(self.roller_law, self.friction), self.shoes, self.tensioners]
+        own.append(Gravity(self.gravity))
+        return tuple(e for e in own if e is not None) + tuple(self.elements)
+
+    def add_elements(self, *elements: AbstractElement) -> Scene:
+        """This scene with ``elements`` added to its force elements."""
+        return dataclasses.replace(self, elements=tuple(self.elements) + tuple(elements))
 
     @property
     def n_bodies(self) -> int:

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float, Int
 
 from ._numerics import is_concrete
 from ._observers import AbstractIntegralObserver, AbstractStepObserver, PeakRecord
 from ._options import SolveOptions, with_options
-from ._result import Result, raise_if_failed, result_names
+from ._result import Result, raise_if_failed, result_messages, result_names
 from ._scene import Scene
 from ._solve import check_horizon, solve, strong_scene
 
@@ -18,10 +21,12 @@ __all__ = ["simulate", "Solution", "time_span"]
 
 
 class Solution(eqx.Module):
-    """Named outputs of a drive simulation (SI units).
+    """Named outputs of a drive simulation (SI units): one member's, from
+    :func:`simulate`, or an ensemble's, from :func:`~jaxchain.simulate_ensemble`, with a
+    leading member axis M on every field but ``ts`` (shapes below are one member's).
 
     Attributes:
-        ts: (T,) save times [s].
+        ts: (T,) save times [s] (shared by an ensemble's members).
         roller_position, roller_velocity: (T, R, 2) world frame [m], [m/s].
         roller_sprocket_force: (T, R) roller/tooth normal force, summed over sprockets [N].
         peak_contact_force: max of the roller/tooth force over the save times and every
@@ -44,6 +49,19 @@ class Solution(eqx.Module):
             [N·m] (counter-clockwise positive).
         guide_force: (T, G) magnitude of the chain's force on each guide [N]; None
             without shoes.
+        element_outputs: the saved outputs of force elements added to the scene
+            (:meth:`~jaxchain.Scene.add_elements`), by name, each (T, ...).
+
+    An ensemble's solution also has (None for one member's):
+        steps: (M,) steps each member took (accepted + rejected): the work it needed.
+        accepted_steps: (M,) accepted steps per member.
+        steps_executed: steps the batched loops executed: over groups and devices, the
+            slice size times the slowest member's steps (padding included).
+        waste: ``steps_executed / sum(steps)`` (1: no step thrown away).
+        predicted_steps: (M,) the pilot's (or the given) cost estimate, or None.
+        groups: the member indices of each group, in the order run (static).
+        batch_sizes: each group's padded batch size (static).
+        n_devices: devices the member axis was split across (static).
     """
 
     ts: Float[Array, " T"]
@@ -64,20 +82,103 @@ class Solution(eqx.Module):
     tensioner_force: Float[Array, "T A"] | None = None
     tensioner_torque: Float[Array, "T A"] | None = None
     guide_force: Float[Array, "T G"] | None = None
+    element_outputs: dict = eqx.field(default_factory=dict)
+    steps: Int[Array, " M"] | None = None
+    accepted_steps: Int[Array, " M"] | None = None
+    steps_executed: Int[Array, ""] | None = None
+    waste: Float[Array, ""] | None = None
+    predicted_steps: Float[Array, " M"] | None = None
+    groups: tuple[tuple[int, ...], ...] | None = eqx.field(static=True, default=None)
+    batch_sizes: tuple[int, ...] | None = eqx.field(static=True, default=None)
+    n_devices: int | None = eqx.field(static=True, default=None)
+
+    @property
+    def is_ensemble(self) -> bool:
+        """Whether this is an ensemble's solution (a leading member axis)."""
+        return self.groups is not None
+
+    @property
+    def n_members(self) -> int:
+        """Members of an ensemble (1 for one member's solution)."""
+        return int(np.shape(self.peak_contact_force)[0]) if self.is_ensemble else 1
+
+    @property
+    def successful(self) -> np.ndarray:
+        """Which members succeeded: bool, (M,) for an ensemble."""
+        return np.asarray(self.result == Result.successful)
 
     @property
     def ok(self) -> bool:
-        return bool(self.result == Result.successful)
+        """Whether the solve (every member) succeeded."""
+        return bool(np.all(self.successful))
+
+    @property
+    def failed(self) -> list[int]:
+        """Indices of the members that did not succeed ([] or [0] for one member)."""
+        return [int(i) for i in np.nonzero(~np.atleast_1d(self.successful))[0]]
 
     @property
     def result_name(self) -> str:
-        """The :class:`Result` name ("successful", "diverged", …)."""
-        return result_names(self.result)[0]
+        """The :class:`Result` name ("successful", "diverged", …); an ensemble's: its
+        first failed member's ("successful" if none failed)."""
+        if not self.is_ensemble:
+            return result_names(self.result)[0]
+        names = result_names(self.result)
+        return names[self.failed[0]] if self.failed else names[0]
 
     @property
     def message(self) -> str:
-        """What happened, and what to change ("" when successful)."""
-        return Result[self.result]
+        """What happened, and what to change ("" when successful); an ensemble's: its
+        first failed member's."""
+        if not self.is_ensemble:
+            return Result[self.result]
+        return self.messages[self.failed[0]] if self.failed else ""
+
+    @property
+    def messages(self) -> list[str]:
+        """Per member: what happened and what to change ("" when successful)."""
+        return result_messages(self.result)
+
+    @property
+    def result_names(self) -> list[str]:
+        """Per member: the :class:`Result` name ("successful", "diverged", …)."""
+        return result_names(self.result)
+
+    def member(self, i: int) -> Solution:
+        """Member ``i`` of an ensemble as one member's solution."""
+        if not self.is_ensemble:
+            raise TypeError("member: this is one member's solution (from jc.simulate)")
+        m = self.n_members
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -m <= i < m:
+            raise IndexError(f"member index must be an integer in [-{m}, {m}), got {i!r}")
+        pick = lambda x: x[i] if eqx.is_array(x) else x
+        one = {
+            f.name: jax.tree_util.tree_map(pick, getattr(self, f.name))
+            for f in dataclasses.fields(self)
+            if f.name not in _ENSEMBLE_ONLY + ("ts",)
+        }
+        return Solution(ts=self.ts, **one)
+
+
+_ENSEMBLE_ONLY = (
+    "steps",
+    "accepted_steps",
+    "steps_executed",
+    "waste",
+    "predicted_steps",
+    "groups",
+    "batch_sizes",
+    "n_devices",
+)
+
+
+def split_saved(saved: dict) -> dict:
+    """The solve's saved outputs as :class:`Solution` keyword arguments: its own fields,
+    and the rest (added elements' outputs) in ``element_outputs``."""
+    own = {f.name for f in dataclasses.fields(Solution)}
+    out = {k: v for k, v in saved.items() if k in own}
+    out["element_outputs"] = {k: v for k, v in saved.items() if k not in own}
+    return out
 
 
 def time_span(t0: ArrayLike, t1: ArrayLike, ts: ArrayLike | None, n_save: int):
@@ -176,7 +277,7 @@ def simulate(
         stats=traj.stats,
         y1=traj.y1,
         observed=traj.observed[1:],
-        **saved,
+        **split_saved(saved),
     )
 
 

@@ -19,7 +19,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
-from ._dynamics import DriveState, forces, initial_state, outputs, prepare, rates
+from ._dynamics import DriveState, forces, initial_state, outputs, rates
+from ._elements.rollers import prepare
 from ._numerics import is_concrete
 from ._observers import AbstractIntegralObserver, AbstractStepObserver, Health
 from ._options import Resolved

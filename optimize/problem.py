@@ -474,12 +474,8 @@ def remeasure_many(
 def profile_values(profile, space: DesignSpace | None = None) -> dict:
     """The design's parameters: the ISO 606 four of a ``ToothProfile``, else the space's
     chosen leaves (floats or lists)."""
-    if isinstance(profile, jc.ToothProfile) and (
-        space is None or space.names == jc.design.PARAMETERS
-    ):
-        return {n: float(getattr(profile, n)) for n in jc.design.PARAMETERS}
     out = {}
-    for name in space.names:
+    for name in jc.design.PARAMETERS if space is None else space.names:
         leaf = profile
         for part in name.split("."):
             leaf = getattr(leaf, part)

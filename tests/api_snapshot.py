@@ -48,6 +48,7 @@ MODULES = (
     "jaxchain.design",
     "jaxchain.observers",
     "jaxchain.loads",
+    "jaxchain.elements",
     "jaxchain.distributed",
     "jaxchain.launch",
 )

@@ -70,14 +70,14 @@ def test_design_space_corners_are_valid_profiles():
     lowered to where the flanks meet (some corners, e.g. the smallest flank radius with
     the largest tip diameter, have a pointed tooth: the geometry clamps the tip there,
     smoothly in every other parameter)."""
-    from jaxchain._profile import _flank_centre_line_radius, _np_geometry_of
+    from jaxchain._profiles.iso import flank_meeting_diameter
 
     lim = jc.iso606_limits(CHAIN, Z)
     clamped = 0
     for pick in itertools.product((0, 1), repeat=4):
         vals = {n: lim[n][i] for n, i in zip(jc.design.PARAMETERS, pick, strict=True)}
         kw = dict(teeth=Z, pitch=CHAIN.pitch, roller_diameter=CHAIN.roller_diameter, **vals)
-        reach = 2 * _flank_centre_line_radius(_np_geometry_of(**kw), vals["flank_radius"])
+        reach = flank_meeting_diameter(**kw)
         if vals["tip_diameter"] > reach:
             clamped += 1
             kw["tip_diameter"] = reach * (1 - 1e-9)

@@ -159,7 +159,7 @@ def test_sprockets_of_different_teeth_in_one_vmapped_contact(small_drive):
     """The roller contacts of all sprockets are one vmapped evaluation (tooth shapes
     stacked, the tooth count an array): each sprocket's normal forces and torque equal a
     direct evaluation of its own profile (9 and 18 teeth), every roller checked."""
-    from jaxchain._gap import gap_contact
+    from jaxchain._profiles.contact import gap_contact
 
     sc = small_drive
     y = initial_state(sc)

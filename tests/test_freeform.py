@@ -15,7 +15,7 @@ from matplotlib.path import Path
 from scipy.spatial import cKDTree
 
 import jaxchain as jc
-from jaxchain._gap import with_table
+from jaxchain._profiles.freeform_shape import with_table
 
 CH = jc.ChainSpec.iso606("08B")
 Z = 18
@@ -563,7 +563,7 @@ def test_a_per_gap_pattern_simulates():
 
 def test_a_table_computed_ahead_reads_the_same():
     """What a solve does before its loop (every gap's outline table computed once:
-    ``jaxchain._gap.with_table``) changes no distance or normal beyond rounding (fused
+    ``with_table``) changes no distance or normal beyond rounding (fused
     differently). Its gradients: the per-gap design gradient's check against central
     differences (``test_orders.py``) runs through it."""
     p = pattern(np.random.default_rng(5))

@@ -11,6 +11,7 @@ from hypothesis import given, strategies as st
 from scipy.spatial import cKDTree
 
 import jaxchain as jc
+from jaxchain._profiles.iso import flank_meeting_diameter
 
 from helpers import central_fd
 
@@ -341,8 +342,7 @@ def _profile_in_box(name, z, fr):
     names = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter")
     kw = {n: lim[n][0] + f * (lim[n][1] - lim[n][0]) for n, f in zip(names, fr, strict=True)}
     mx = jc.ToothProfile.iso606(ch, z, "min")  # its tip is the largest the standard allows
-    g = jc._profile._np_geometry_of(teeth=z, pitch=ch.pitch, **kw)
-    reach = 2 * jc._profile._flank_centre_line_radius(g, kw["flank_radius"])
+    reach = flank_meeting_diameter(teeth=z, pitch=ch.pitch, **kw)
     kw["tip_diameter"] = min(kw["tip_diameter"], float(mx.tip_diameter), reach * (1 - 1e-6))
     return jc.ToothProfile(teeth=z, pitch=ch.pitch, roller_diameter=ch.roller_diameter, **kw)
 
@@ -430,8 +430,7 @@ def test_nearest_gap_index():
 def test_gap_rotation_matches_cos_sin_for_every_gap_of_every_tooth_count():
     """The gap rotation is built from per-profile factors (no trig per point): it must
     still be the rotation by 2πk/z, to round-off, for every k of every allowed z."""
-    from jaxchain._gap import _gap_rotation
-    from jaxchain._profile import MAX_TEETH, MIN_TEETH
+    from jaxchain._profiles.base import MAX_TEETH, MIN_TEETH, gap_rotation as _gap_rotation
 
     z = np.arange(MIN_TEETH, MAX_TEETH + 1)[:, None]
     k = np.arange(MAX_TEETH)[None, :]

@@ -12,14 +12,7 @@ import numpy as np
 import pytest
 
 import jaxchain as jc
-from jaxchain._dynamics import (
-    _clearance_friction,
-    _joint_friction,
-    _pair,
-    _rot,
-    forces,
-    initial_state,
-)
+from jaxchain._dynamics import forces, initial_state
 from jaxchain._scene import ClearanceJoints, JointFriction, PairGroup
 
 LAW = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-3)
@@ -45,7 +38,7 @@ def test_lumped_joint_moment_is_coulomb_closed_form():
     for omega in (0.5, -3.0, 80.0):  # rad/s: inside and far outside the creep band r·Ω < v_s
         arm = q[2, :2]
         v = jnp.zeros((3, 3)).at[2, :2].set(omega * jnp.array([-arm[1], arm[0]]))
-        g, _ = _joint_friction(3, jf, q, v, jnp.array([tension, tension]))
+        g, _ = jf.moments(3, q, v, jnp.array([tension, tension]))
         moment_after = float(arm[0] * g[2, 1] - arm[1] * g[2, 0])
         want = -0.1 * tension * r * math.tanh(r * omega / 2e-3)
         np.testing.assert_allclose(moment_after, want, rtol=1e-12)
@@ -129,10 +122,10 @@ def test_clearance_joint_friction_is_coulomb_at_the_contact():
     q = jnp.array([[0.0, 0.0, 0.0], [ell, 0.0, 0.0]])
     for omega in (0.3, -20.0):
         v = jnp.zeros((2, 3)).at[0, 2].set(omega)
-        ps = _pair(grp, q, v, _rot(q[:, 2]), 1.0)
+        ps = grp.state(q, v, 1.0)
         fn = float(ps.tension[0])
         assert fn > 100.0
-        g, _ = _clearance_friction(2, grp, ps, v)
+        g, _ = grp.friction_forces(2, ps, v)
         want = -0.1 * fn * r * math.tanh(r * omega / 2e-3)
         np.testing.assert_allclose(float(g[0, 2]), want, rtol=1e-12)
         # equal and opposite tangential forces; the hole's at its wall, radius r + c

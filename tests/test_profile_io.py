@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import jaxchain as jc
+from jaxchain._profiles.record import profile_to_dict
 
 CH = jc.ChainSpec.iso606("08B")
 Z = 18
@@ -181,7 +182,7 @@ def test_an_unfinished_write_leaves_the_old_file(tmp_path, monkeypatch):
     """The file is replaced whole: a failure while writing keeps the old one."""
     path = ISO.save(tmp_path / "p.json")
     before = path.read_text()
-    import jaxchain._profile_io as io
+    import jaxchain._profiles.record as io
 
     def broken(*a, **k):
         raise OSError("disk full")
@@ -203,7 +204,7 @@ def test_a_missing_file_is_named(tmp_path):
 
 
 def _saved(tmp_path, change=None, text=None):
-    data = jc._profile_io.profile_to_dict(asymmetric())
+    data = profile_to_dict(asymmetric())
     if change:
         change(data)
     path = tmp_path / "bad.json"

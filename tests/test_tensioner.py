@@ -14,7 +14,7 @@ import pytest
 
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
-from jaxchain._shoe import shoe_contacts
+from jaxchain._elements.shoes import shoe_contacts
 
 from helpers import energy_balance_error
 

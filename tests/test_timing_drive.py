@@ -16,7 +16,7 @@ import pytest
 
 import jaxchain as jc
 from jaxchain._dynamics import contact_slots_ok, initial_state, roller_kinematics
-from jaxchain._shoe import shoe_contacts
+from jaxchain._elements.shoes import shoe_contacts
 from jaxchain.design import DesignSpace, ProfileObjective
 
 CHAIN = jc.ChainSpec.iso606("06B")

@@ -261,6 +261,11 @@ BAD = [
     (lambda: jc.simulate_ensemble(STACKED, 1.0), ValueError, r"members \[0, 1\] end"),
     # ---------------------------------------------------------------- design
     (lambda: DesignSpace("tmpl", LO, HI), TypeError, "template must be a jc.ToothProfile"),
+    (
+        lambda: DesignSpace(jc.FreeformProfile.from_iso(jc.ToothProfile.iso606("08B", 18)), LO, HI),
+        TypeError,
+        "has no .*flank_radius",
+    ),
     (lambda: DesignSpace(PROFILE, LO, HI + INF), ValueError, "lower and upper must be finite"),
     (lambda: DesignSpace(PROFILE, LO[:3], HI[:3]), ValueError, r"shape \(4,\)"),
     (

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike
 
 from .._numerics import is_concrete
 
-__all__ = ["hertz_stiffness", "effective_radius"]
+__all__ = ["hertz_stiffness", "effective_radius", "tangent_stiffness", "contact_potential"]
 
 
 def effective_radius(radius1: ArrayLike, radius2: ArrayLike, *, internal: bool = False) -> Array:
@@ -44,3 +46,32 @@ def hertz_stiffness(
         * jnp.asarray(modulus)
         * jnp.sqrt(effective_radius(radius1, radius2, internal=internal))
     )
+
+
+@eqx.filter_jit
+def tangent_stiffness(law, force):
+    """dF/dδ of ``law`` (largest over array-valued fields) where its static force is
+    ``force``: bisection on log δ over [1e-13, 1e-2] m."""
+
+    def f(log_d):
+        return jnp.max(law.normal_force(jnp.exp(log_d), 0.0, 1.0))
+
+    def bisect(_, lohi):
+        lo, hi = lohi
+        mid = 0.5 * (lo + hi)
+        below = f(mid) < force
+        return jnp.where(below, mid, lo), jnp.where(below, hi, mid)
+
+    _, hi = jax.lax.fori_loop(0, 80, bisect, (jnp.log(1e-13), jnp.log(1e-2)))
+    return jax.grad(f)(hi) / jnp.exp(hi)
+
+
+def contact_potential(law, depth, n_nodes: int = 24):
+    """∫ elastic force d(depth) from the law's onset (−width) to ``depth`` [J]: the energy a
+    contact of ``law`` stores at ``depth`` [m] (Gauss–Legendre, ``n_nodes`` nodes)."""
+    x, w = np.polynomial.legendre.leggauss(n_nodes)
+    lo = -law.width
+    hi = jnp.maximum(depth, lo)
+    half = 0.5 * (hi - lo)
+    pts = lo + half[..., None] * (x + 1.0)
+    return half * jnp.sum(w * law.elastic_force(pts), axis=-1)

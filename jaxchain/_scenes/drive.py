@@ -14,9 +14,10 @@ from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
-from .._freeform import FreeformProfile
 from .._loads import AbstractLoad
-from .._profile import MAX_TEETH, AbstractProfile, ToothProfile
+from .._profiles.base import MAX_TEETH, AbstractProfile
+from .._profiles.freeform import FreeformProfile
+from .._profiles.iso import ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (

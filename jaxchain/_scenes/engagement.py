@@ -13,7 +13,8 @@ from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
-from .._profile import MAX_TEETH, AbstractProfile, ToothProfile
+from .._profiles.base import MAX_TEETH, AbstractProfile
+from .._profiles.iso import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
 from .build import assemble, chain_bodies, link_stiffness, roller_law
 from .common import (

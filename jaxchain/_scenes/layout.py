@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
-from .._profile import MAX_TEETH, MIN_TEETH
+from .._profiles.base import MAX_TEETH, MIN_TEETH
 
 __all__ = [
     "DriveLayout",
@@ -143,7 +143,7 @@ class StrandLayout(NamedTuple):
 
 
 # ----------------------------------------------------------------------------- checks
-def _check_teeth(name: str, z) -> int:
+def check_teeth(name: str, z) -> int:
     if (
         isinstance(z, bool)
         or not isinstance(z, (int, np.integer))
@@ -153,14 +153,14 @@ def _check_teeth(name: str, z) -> int:
     return int(z)
 
 
-def _check_length(name: str, x) -> float:
+def check_length(name: str, x) -> float:
     x = float(x)
     if not (math.isfinite(x) and x > 0):
         raise ValueError(f"{name} must be a finite length > 0 m, got {x!r}")
     return x
 
 
-def _check_count(name: str, n, lo: int, hi: int | None = None, why: str = "") -> int:
+def check_count(name: str, n, lo: int, hi: int | None = None, why: str = "") -> int:
     ok = not isinstance(n, bool) and isinstance(n, (int, np.integer))
     ok = ok and n >= lo and (hi is None or n <= hi)
     if not ok:
@@ -169,7 +169,7 @@ def _check_count(name: str, n, lo: int, hi: int | None = None, why: str = "") ->
     return int(n)
 
 
-def _pitch_radius(link_pitch: float, z: int) -> float:
+def chain_pitch_radius(link_pitch: float, z: int) -> float:
     """R = p_l / (2 sin(π/z)): radius of the pitch points [m]."""
     return link_pitch / (2 * math.sin(math.pi / z))
 
@@ -177,7 +177,7 @@ def _pitch_radius(link_pitch: float, z: int) -> float:
 def _pitch_points(link_pitch: float, z: int, theta: float) -> np.ndarray:
     """(z, 2) pitch points of gaps 0 … z − 1 about the sprocket's own axis [m]."""
     a = theta + 2 * math.pi * np.arange(z) / z
-    return _pitch_radius(link_pitch, z) * np.stack([np.cos(a), np.sin(a)], -1)
+    return chain_pitch_radius(link_pitch, z) * np.stack([np.cos(a), np.sin(a)], -1)
 
 
 def _angle_from(x: float, lo: float) -> float:
@@ -215,7 +215,7 @@ class _Family:
 
     def __init__(self, lp: float, z1: int, z2: int, th1: float, th2: float):
         self.lp, self.z1, self.z2, self.th1, self.th2 = lp, z1, z2, th1, th2
-        self.r1, self.r2 = _pitch_radius(lp, z1), _pitch_radius(lp, z2)
+        self.r1, self.r2 = chain_pitch_radius(lp, z1), chain_pitch_radius(lp, z2)
         self.p1 = _pitch_points(lp, z1, th1)
         self.p2 = _pitch_points(lp, z2, th2)  # about the driven axis
         self._l1, self._l2 = self.p1.tolist(), self.p2.tolist()
@@ -370,19 +370,19 @@ def closed_drive_layout(
             pitch radii plus one pitch), or a link count too small to wrap both sprockets
             at such a centre distance.
     """
-    _check_length("pitch", pitch)
-    z1 = _check_teeth("z1", z1)
-    z2 = _check_teeth("z2", z2)
-    lp = _check_length("link_pitch", pitch if link_pitch is None else link_pitch)
+    check_length("pitch", pitch)
+    z1 = check_teeth("z1", z1)
+    z2 = check_teeth("z2", z2)
+    lp = check_length("link_pitch", pitch if link_pitch is None else link_pitch)
     if (centre_distance is None) == (n_links is None):
         got = "neither" if centre_distance is None else "both"
         raise ValueError(f"give exactly one of centre_distance and n_links, got {got}")
-    r1, r2 = _pitch_radius(lp, z1), _pitch_radius(lp, z2)
+    r1, r2 = chain_pitch_radius(lp, z1), chain_pitch_radius(lp, z2)
     c_min = r1 + r2 + lp
     fams = _families(lp, z1, z2)
     n_min = min(_even_ceil(f.length(c_min) / lp) for f in fams)
     if n_links is not None:
-        n = _check_count(
+        n = check_count(
             "n_links", n_links, n_min, why=f" for z1={z1}, z2={z2} (to wrap both sprockets)"
         )
         if n % 2:
@@ -463,8 +463,8 @@ def transport_velocity(
             for z, s in zip(teeth, layout.sense, strict=True)
         )
         return _rigid_transport(layout.rollers, layout.sprocket_of, layout.centres, omegas)
-    z1 = _check_teeth("z1", z1)
-    z2 = _check_teeth("z2", z2)
+    z1 = check_teeth("z1", z1)
+    z2 = check_teeth("z2", z2)
     axes = np.array([[0.0, 0.0], [float(layout.centre_distance), 0.0]])
     omegas = (float(omega1), float(omega1) * z1 / z2)
     return _rigid_transport(layout.rollers, layout.sprocket_of, axes, omegas)
@@ -525,12 +525,12 @@ def strand_layout(
 
     For wrap >= z/2 + 2 the spans converge below the sprocket, and long ones cross.
     """
-    _check_length("pitch", pitch)
-    z = _check_teeth("z", z)
-    wrap = _check_count("wrap", wrap, 2, z - 1, f" (2 to z - 1 seated rollers, z={z})")
-    n_entry = _check_count("n_entry", n_entry, 1)
-    n_exit = _check_count("n_exit", n_exit, 1)
-    lp = _check_length("link_pitch", pitch if link_pitch is None else link_pitch)
+    check_length("pitch", pitch)
+    z = check_teeth("z", z)
+    wrap = check_count("wrap", wrap, 2, z - 1, f" (2 to z - 1 seated rollers, z={z})")
+    n_entry = check_count("n_entry", n_entry, 1)
+    n_exit = check_count("n_exit", n_exit, 1)
+    lp = check_length("link_pitch", pitch if link_pitch is None else link_pitch)
     theta = float(theta)
     if not math.isfinite(theta):
         raise ValueError(f"theta must be a finite angle in rad, got {theta!r}")

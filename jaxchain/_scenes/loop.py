@@ -39,7 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.optimize import brentq
 
-from .layout import LoopLayout, _check_count, _check_length, _check_teeth, _pitch_radius
+from .layout import LoopLayout, chain_pitch_radius, check_count, check_length, check_teeth
 
 __all__ = ["loop_layout"]
 
@@ -61,7 +61,7 @@ class _Bad(Exception):
     not one counter-clockwise loop); only raised while searching for the closing shift."""
 
 
-class _Circles:
+class Circles:
     """The loop over the pitch circles: tangent spans, wrap arcs and belt length."""
 
     def __init__(self, centres, radii, sense):
@@ -120,7 +120,7 @@ class _Loop:
         self.lp = lp
         self.z = np.asarray(teeth)
         self.s = np.asarray(sense)
-        self.r = np.array([_pitch_radius(lp, int(z)) for z in teeth])
+        self.r = np.array([chain_pitch_radius(lp, int(z)) for z in teeth])
         self.n = len(teeth)
 
     def points(self, k, theta, centre):
@@ -178,7 +178,7 @@ class _Loop:
         return sum(s[2] for s in spans) + self.lp * float(np.sum(wraps - 1)), spans, wraps
 
 
-def _as_centres(centres, n) -> np.ndarray:
+def as_centres(centres, n) -> np.ndarray:
     try:
         c = np.asarray(centres, dtype=float)
     except (TypeError, ValueError):
@@ -193,7 +193,7 @@ def _as_centres(centres, n) -> np.ndarray:
     return c
 
 
-def _as_outside(outside, n) -> tuple[int, ...]:
+def as_outside(outside, n) -> tuple[int, ...]:
     if isinstance(outside, (str, bytes)) or not isinstance(outside, Sequence | np.ndarray):
         raise ValueError(f"outside must be a sequence of sprocket indices, got {outside!r}")
     out = []
@@ -275,7 +275,7 @@ def _check_spans(starts, ends, centres, reach, sense, what: str) -> None:
                 )
 
 
-def _check_circles(circ: _Circles, teeth, sense, what: str) -> None:
+def _check_circles(circ: Circles, teeth, sense, what: str) -> None:
     if abs(circ.turning - 2 * math.pi) > 1e-6:
         k = int(np.argmax(circ.arc))
         raise ValueError(
@@ -338,34 +338,34 @@ def loop_layout(
             a wrap of less than one tooth; an odd ``n_links``, or one too small or too
             large for the take-up to close the loop.
     """
-    _check_length("pitch", pitch)
+    check_length("pitch", pitch)
     if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
         raise ValueError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
     n = len(teeth)
     if n < 2:
         raise ValueError(f"teeth must hold at least 2 tooth counts (driver, driven), got {n}")
-    teeth = tuple(_check_teeth(f"teeth[{k}]", z) for k, z in enumerate(teeth))
-    centres = _as_centres(centres, n)
-    outside = _as_outside(outside, n)
-    lp = _check_length("link_pitch", pitch if link_pitch is None else link_pitch)
+    teeth = tuple(check_teeth(f"teeth[{k}]", z) for k, z in enumerate(teeth))
+    centres = as_centres(centres, n)
+    outside = as_outside(outside, n)
+    lp = check_length("link_pitch", pitch if link_pitch is None else link_pitch)
     m = n - 1 if take_up_sprocket is None else take_up_sprocket
-    m = _check_count("take_up_sprocket", m, 1, n - 1, " (a driven sprocket; 0 drives)")
+    m = check_count("take_up_sprocket", m, 1, n - 1, " (a driven sprocket; 0 drives)")
     sense = np.array([-1 if k in outside else 1 for k in range(n)])
     loop = _Loop(lp, teeth, sense)
     tips = _radii("tip_radii", tip_radii, loop.r + 0.3125 * pitch, n)
     if roller_radius is None:
         roller_radius = 0.3125 * pitch
-    reach = tips + _check_length("roller_radius", roller_radius)
+    reach = tips + check_length("roller_radius", roller_radius)
 
     _check_overlap(centres, tips, "centres: ")
-    circ = _Circles(centres, loop.r, sense)
+    circ = Circles(centres, loop.r, sense)
     if not circ.ok:  # pragma: no cover - tip circles apart: every tangent exists
         raise ValueError("centres: two consecutive sprockets have no common tangent")
     _check_circles(circ, teeth, sense, "centres: ")
     _check_spans(circ.t_out, np.roll(circ.t_in, -1, axis=0), centres, reach, sense, "centres: ")
     if n_links is None:
         n_links = 2 * round(circ.length / (2 * lp))
-    n_links = _check_count("n_links", n_links, 2)
+    n_links = check_count("n_links", n_links, 2)
     if n_links % 2:
         raise ValueError(
             f"n_links must be even (a roller chain without an offset link has an even "
@@ -395,7 +395,7 @@ def loop_layout(
 
     def excess(s):  # needed length minus n_links·p_l, in pitches; None: not a loop there
         c = moved(s)
-        circ_s = _Circles(c, loop.r, sense)
+        circ_s = Circles(c, loop.r, sense)
         if not circ_s.ok or abs(circ_s.turning - 2 * math.pi) > 1e-6:
             return None
         if np.any(circ_s.arc < 2 * math.pi / np.asarray(teeth)):

@@ -14,7 +14,8 @@ from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._loads import AbstractLoad
-from .._profile import MAX_TEETH, AbstractProfile, ToothProfile
+from .._profiles.base import MAX_TEETH, AbstractProfile
+from .._profiles.iso import ToothProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
@@ -28,8 +29,8 @@ from .common import (
     stretch_of,
     worn,
 )
-from .layout import _pitch_radius, transport_velocity
-from .loop import _as_centres, _as_outside, _Circles, loop_layout
+from .layout import chain_pitch_radius, transport_velocity
+from .loop import Circles, as_centres, as_outside, loop_layout
 from .shoes import (
     Guide,
     Tensioner,
@@ -103,7 +104,7 @@ def loop_drive(
     if n < 2:
         raise ValueError(f"teeth must hold at least 2 tooth counts (driver first), got {n}")
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
-    centres = _as_centres(centres, n)
+    centres = as_centres(centres, n)
     speeds = [speed_rpm * math.pi / 30 * teeth[0] / z for z in teeth[1:]]
     driven_loads, held = as_loads("load_torque", load_torque, speeds)
     check_load_ramp(driven_loads, load_ramp)
@@ -171,18 +172,18 @@ def loop_drive(
     lay_teeth, lay_centres, lay_outside = teeth, centres, outside
     if tensioner is not None:
         # the shoe laid out as an idler on the chain's back, inserted after sprocket jt
-        sense = np.array([-1 if k in _as_outside(outside, n) else 1 for k in range(n)])
-        circ = _Circles(centres, np.array([_pitch_radius(lp, z) for z in teeth]), sense)
+        sense = np.array([-1 if k in as_outside(outside, n) else 1 for k in range(n)])
+        circ = Circles(centres, np.array([chain_pitch_radius(lp, z) for z in teeth]), sense)
         if not circ.ok:
             raise ValueError("centres: two consecutive sprockets have no common tangent")
         z_v = shoe_teeth(tensioner, lp, r_roller)
-        r_v = _pitch_radius(lp, z_v)
+        r_v = chain_pitch_radius(lp, z_v)
         c_v, span_length = idler_centre(tensioner, circ.t_out[jt], circ.t_in[(jt + 1) % n], r_v)
         iv = jt + 1
         real = [k if k <= jt else k + 1 for k in range(n)]
         lay_teeth = (*teeth[:iv], z_v, *teeth[iv:])
         lay_centres = np.insert(centres, iv, c_v, axis=0)
-        lay_outside = (*[real[k] for k in _as_outside(outside, n)], iv)
+        lay_outside = (*[real[k] for k in as_outside(outside, n)], iv)
         tips = [*tips[:iv], r_v - r_roller, *tips[iv:]]
         m = iv
     try:

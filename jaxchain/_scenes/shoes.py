@@ -24,7 +24,7 @@ from .._chain import ChainSpec
 from .._contact.flores import Flores
 from .._contact.friction import CoulombFriction
 from .._materials import STEEL, Material, effective_modulus
-from .._profile import MAX_TEETH, MIN_TEETH
+from .._profiles.base import MAX_TEETH, MIN_TEETH
 from .._scene import Shoes, Tensioners
 
 __all__ = ["Tensioner", "Guide", "SHOE_FRICTION", "POLYAMIDE", "shoe_law"]
@@ -335,11 +335,8 @@ def place_guide(guide: Guide, start, end, chain: ChainSpec) -> dict:
 
 
 #: Shoes check every roller unless the chain has more rollers than this per contact slot:
-#: picking a shoe's nearest rollers (a top-k, gathers and scatters) costs more than its
-#: contact with every roller. Measured on the vector field of a timing drive with one
-#: tensioner shoe (CPU time per call): 57.7 µs checking all 120 rollers against 66.4 µs
-#: with 16 slots; 75.9 against 85.5 µs at 208 rollers (19 slots); 151.6 against 166.7 µs
-#: at 418 (21).
+#: up to there, picking a shoe's nearest rollers (a top-k, gathers and scatters) costs
+#: more than its contact with every roller.
 SHOE_ROLLERS_PER_SLOT = 24
 
 

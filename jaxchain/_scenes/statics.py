@@ -40,7 +40,7 @@ from jaxtyping import ArrayLike
 from .. import _checks as checks
 from .._dynamics import DriveState, forces
 from .._numerics import is_concrete
-from .._scene import LinkSprings, Scene
+from .._scene import Scene
 
 __all__ = ["equilibrate", "resettle", "statics_jacobian"]
 
@@ -119,8 +119,7 @@ def _residual(x, args):
     axis = jnp.where(take_up > 0, pull / force_scale, pin[3 * n + ns : 3 * n + 2 * ns])
     parts = [res.reshape(-1), moment, axis]
     if sc.tensioners is not None:  # each arm: the chain's moment against its spring
-        spring = sc.tensioners.spring_torque(y.arm, y.arm_rate)
-        parts.append((fr.arm_torque + spring) / (force_scale * pitch))
+        parts.append(fr.arm_total_torque / (force_scale * pitch))
     # a vanishing spring (reg, scaled units) to the start: a roller floating in its bush's
     # free play has no force anywhere in it, which would make the problem rank-deficient
     return jnp.concatenate(parts) - reg * (x - x_pin)
@@ -181,40 +180,13 @@ def _accelerations(scene, pitch, force_scale):
     )
 
 
-@eqx.filter_jit
-def _tangent_stiffness(law, force):
-    """dF/dδ of ``law`` (largest over array-valued fields) where its static force is
-    ``force``: bisection on log δ over [1e-13, 1e-2] m."""
-
-    def f(log_d):
-        return jnp.max(law.normal_force(jnp.exp(log_d), 0.0, 1.0))
-
-    def bisect(_, lohi):
-        lo, hi = lohi
-        mid = 0.5 * (lo + hi)
-        below = f(mid) < force
-        return jnp.where(below, mid, lo), jnp.where(below, hi, mid)
-
-    _, hi = jax.lax.fori_loop(0, 80, bisect, (jnp.log(1e-13), jnp.log(1e-2)))
-    return jax.grad(f)(hi) / jnp.exp(hi)
-
-
 def _stable_step(scene: Scene, force: float) -> float:
-    """The symplectic-Euler stability limit 2/ω for the stiffest element at ``force``
-    on the lightest body (ω² ≤ 8k/m bounds a body between two such elements, turning
-    included)."""
+    """The symplectic-Euler stability limit 2/ω for the stiffest force element at
+    ``force`` on the lightest body (ω² ≤ 8k/m bounds a body between two such elements,
+    turning included)."""
     force = jnp.asarray(force, float)
-    ks = [_tangent_stiffness(scene.roller_law, force)]
-    if scene.shoes is not None:
-        ks.append(_tangent_stiffness(scene.shoes.law, force))
-    for g in scene.pairs:
-        el = g.element
-        ks.append(
-            jnp.max(el.stiffness)
-            if isinstance(el, LinkSprings)
-            else _tangent_stiffness(el.law, force)
-        )
-    k = max(float(v) for v in ks)
+    ks = [el.max_stiffness(scene, force) for el in scene.force_elements]
+    k = max(float(v) for v in ks if v is not None)
     return 2.0 / math.sqrt(8.0 * k / float(jnp.min(scene.mass)))
 
 

@@ -1,6 +1,6 @@
 """Free-form sprocket tooth profiles: asymmetric arc-spline flanks and per-tooth patterns.
 
-Frame conventions as in :mod:`jaxchain._profile`: sprocket frame, SI units, origin on
+Frame conventions as in :mod:`.iso`: sprocket frame, SI units, origin on
 the sprocket axis. Gap ``k`` is centred on the ray at angle ``2πk/z + phase[k]``; its seat
 centre lies on that ray at radius ``R + seat_offset[k]`` (R = p / (2 sin(π/z)), the pitch
 radius).
@@ -34,7 +34,7 @@ chain's) is the uniform ``seat_offset = (p' − p) / (2 sin(π/z))``.
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -42,39 +42,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._numerics import is_concrete, safe_norm, safe_sqrt
-from ._profile import AbstractProfile, ToothProfile, _check_teeth
+from .._numerics import is_concrete
+from .base import AbstractProfile, check_teeth
+from .freeform_shape import Flank, FreeShape, HalfGap, gap_table, half_gap, split_between
 
-__all__ = ["Flank", "FreeformProfile"]
-
-
-class Flank(eqx.Module):
-    """One side of a tooth gap: the seat's part on that side and the flank above it.
-
-    Attributes:
-        seat_angle: angle [rad] the seat arc spans on this side of the gap axis (an ISO
-            606 gap has α/2 on each side); scalar or (z,).
-        curvature: curvatures [1/m] of the flank's K arcs from the seat outwards, > 0
-            (convex teeth); shape (K,) or (z, K).
-        breaks: where arcs 1 … K−1 end, as fractions of the flank's radial rise from the
-            seat junction to the tip circle, increasing in (0, 1); shape (K−1,) or
-            (z, K−1) (empty for K = 1).
-    """
-
-    seat_angle: Float[Array, "*z"]
-    curvature: Float[Array, "*z K"]
-    breaks: Float[Array, "*z Km1"]
-
-    def __init__(self, seat_angle: ArrayLike, curvature: ArrayLike, breaks: ArrayLike = ()):
-        self.seat_angle = jnp.asarray(seat_angle, dtype=float)
-        self.curvature = jnp.atleast_1d(jnp.asarray(curvature, dtype=float))
-        b = jnp.asarray(breaks, dtype=float)
-        self.breaks = b.reshape(self.curvature.shape[:-1] + (0,)) if b.size == 0 else b
-
-    @property
-    def arcs(self) -> int:
-        """K, the number of arcs."""
-        return self.curvature.shape[-1]
+__all__ = ["Flank", "FreeformProfile", "stack_shapes"]
 
 
 class FreeformProfile(AbstractProfile):
@@ -123,7 +95,7 @@ class FreeformProfile(AbstractProfile):
         phase: ArrayLike = 0.0,
         min_tip_width: float = 0.0,
     ):
-        _check_teeth(teeth)
+        check_teeth(teeth)
         self.teeth = int(teeth)
         self.pitch = jnp.asarray(pitch, dtype=float)
         self.roller_diameter = jnp.asarray(roller_diameter, dtype=float)
@@ -146,13 +118,14 @@ class FreeformProfile(AbstractProfile):
 
     # ------------------------------------------------------------------ factories
     @classmethod
-    def from_iso(cls, profile: ToothProfile, arcs: int = 1, **changes) -> FreeformProfile:
+    # (the ISO kind is named, not imported: iso imports this module to convert itself)
+    def from_iso(cls, profile: ToothProfile, arcs: int = 1, **changes) -> FreeformProfile:  # noqa: F821
         """The free-form profile with the same outline as the ISO-type ``profile``: both
         flanks one arc of curvature 1/re, split into ``arcs`` arcs of that curvature (break
         points evenly spaced in the radial rise), seat angle α/2 on each side. Keyword
         ``changes`` replace fields (e.g. ``seating_radius=array`` for a per-tooth
         pattern)."""
-        if not isinstance(profile, ToothProfile):
+        if not (isinstance(profile, AbstractProfile) and hasattr(profile, "flank_radius")):
             raise TypeError(
                 f"from_iso: profile must be a jc.ToothProfile, got {type(profile).__name__}"
             )
@@ -179,13 +152,61 @@ class FreeformProfile(AbstractProfile):
         """K, arcs per flank (both sides have the same K)."""
         return self.ccw.arcs
 
-    def shape(self) -> FreeShape:
+    def contact_shape(self) -> FreeShape:
         """What the contact reads, with ``teeth`` an array leaf (see :class:`FreeShape`)."""
         return FreeShape(
             jnp.asarray(self.teeth, dtype=self.pitch.dtype), self.pitch,
             self.roller_diameter, self.seating_radius, self.seat_offset, self.phase,
             self.tip_diameter, self.cw, self.ccw,
         )  # fmt: skip
+
+    shape = contact_shape
+
+    def freeform(self, arcs: int | None = None) -> FreeformProfile:
+        """This profile (``arcs`` None or its own K), or the same outline with ``arcs``
+        arcs per flank (the last arc split at the same curvature)."""
+        if arcs is None or arcs == self.arcs:
+            return self
+        if not isinstance(arcs, (int, np.integer)) or not self.arcs < arcs <= 16:
+            raise ValueError(f"arcs must be an integer in [{self.arcs}, 16], got {arcs!r}")
+        return _refine(self, arcs)
+
+    def pitch_points(self) -> np.ndarray:
+        """(z, 2) the seat centres [m], sprocket frame: seat k at radius R + seat_offset[k]
+        on the ray at angle 2πk/z + phase[k]."""
+        z = self.teeth
+        r = float(self.pitch_radius) + np.broadcast_to(np.asarray(self.seat_offset), (z,))
+        a = 2 * np.pi * np.arange(z) / z + np.broadcast_to(np.asarray(self.phase), (z,))
+        return r[:, None] * np.stack([np.cos(a), np.sin(a)], -1)
+
+    def outline_arcs(self) -> list[tuple]:
+        """The sprocket's closed outline as circular arcs, counter-clockwise round the
+        sprocket: ``(centre (2,), radius, start angle, end angle)`` [m, rad], each arc
+        counter-clockwise about its centre from start to end (the DXF convention). Per gap:
+        the clockwise flank's arcs from the tip down, the seat, the counter-clockwise
+        flank's arcs up, the tip of the tooth after the gap. Zero-length arcs (a pointed
+        tooth's tip) are left out."""
+        z, k = self.teeth, self.arcs
+        # every leaf per gap, so that the table holds one row per gap in the sprocket frame
+        ri = jnp.broadcast_to(self.seating_radius, (z,))
+        table = _table(eqx.tree_at(lambda q: q.seating_radius, self, ri))
+        centre = np.asarray(table.centre, dtype=float)
+        radius = np.asarray(table.radius, dtype=float)
+        start = np.asarray(table.start, dtype=float)
+        end = np.asarray(table.end, dtype=float)
+        # row order [cw arcs (K, from the seat out), cw corner, seat, ccw arcs (K), ccw corner,
+        # tip]: walk down the cw flank, round the seat, up the ccw flank, over the tip
+        order = [*range(k - 1, -1, -1), k + 1, *range(k + 2, 2 * k + 2), 2 * k + 3]
+        arcs = []
+        for g in range(z):
+            for f in order:
+                a0 = math.atan2(start[g, f, 1], start[g, f, 0])
+                a1 = math.atan2(end[g, f, 1], end[g, f, 0])
+                sweep = (a1 - a0) % (2 * math.pi)
+                if radius[g, f] * min(sweep, 2 * math.pi - sweep) < 1e-12:
+                    continue
+                arcs.append((centre[g, f], float(radius[g, f]), a0, a1))
+        return arcs
 
     def gaps(self) -> GapGeometry:
         """Geometry of every gap (NumPy arrays, leading axis z; see :class:`GapGeometry`)."""
@@ -213,27 +234,6 @@ class FreeformProfile(AbstractProfile):
         g = self.gaps()
         pts = np.concatenate([_gap_outline(g, k, n)[:-1] for k in range(self.teeth)])
         return np.concatenate([pts, pts[:1]])
-
-
-class FreeShape(eqx.Module):
-    """What the contact reads of a :class:`FreeformProfile`, with the tooth count an array
-    leaf: the shapes of sprockets with different tooth counts stack into one pytree
-    (per-gap leaves padded to the largest z) and are evaluated by one vmapped contact."""
-
-    teeth: Float[Array, ""]
-    pitch: Float[Array, ""]
-    roller_diameter: Float[Array, ""]
-    seating_radius: Float[Array, "*z"]
-    seat_offset: Float[Array, "*z"]
-    phase: Float[Array, "*z"]
-    tip_diameter: Float[Array, ""]
-    cw: Flank
-    ccw: Flank
-    table: Any = None  # its jaxchain._gap.GapTable, where computed ahead (with_table)
-
-    @property
-    def roller_radius(self) -> Array:
-        return self.roller_diameter / 2
 
 
 # --------------------------------------------------------------------------- checks
@@ -428,54 +428,6 @@ def _check_flank(g: GapGeometry, k: int, s: int, side: str, ra: float) -> None:
 
 
 # --------------------------------------------------------------------------- geometry
-class HalfGap(NamedTuple):
-    """One side of one gap in its canonical frame (gap axis +x, the side at y ≥ 0; the
-    clockwise side is mirrored into it). K arcs per flank."""
-
-    seat_centre: Float[Array, 2]
-    seating_radius: Float[Array, ""]
-    centres: Float[Array, "K 2"]  # flank arcs' centres
-    radii: Float[Array, " K"]
-    vertices: Float[Array, "Kp1 2"]  # J, break points, tip corner
-    tip_radius: Float[Array, ""]
-    split: Float[Array, 2]  # where the tip circle meets the tooth centre line
-
-
-def half_gap(cx, ri, seat_angle, curvature, breaks, ra) -> HalfGap:
-    """Geometry of one side of a gap from its parameters (module docstring); K (the
-    length of ``curvature``) is static, so the arcs unroll into K short blocks. The tip
-    part ends at the tip corner (``split``): the caller extends it to where the next
-    gap's outline takes over (:func:`split_between`)."""
-    c = jnp.stack([cx, jnp.zeros_like(cx)])
-    n = jnp.stack([-jnp.cos(seat_angle), jnp.sin(seat_angle)])  # from c through J
-    p = c + ri * n
-    r_j = safe_norm(p)
-    k = curvature.shape[-1]
-    targets = jnp.concatenate([r_j + breaks * (ra - r_j), ra[None]])
-    centres, radii, verts = [], [], [p]
-    for i in range(k):
-        r = 1.0 / curvature[i]
-        centre = p + r * n  # n: unit normal toward the arc's centre (the material side)
-        lc = safe_norm(centre)
-        ch = centre / lc
-        a = (targets[i] ** 2 - r**2 + lc**2) / (2 * lc)
-        h = safe_sqrt(targets[i] ** 2 - a**2)
-        # the crossing of radius targets[i] on the arc's rising side (clockwise of O→C)
-        p = a * ch - h * jnp.stack([-ch[1], ch[0]])
-        n = (centre - p) / r
-        centres.append(centre)
-        radii.append(r)
-        verts.append(p)
-    return HalfGap(c, ri, jnp.stack(centres), jnp.stack(radii), jnp.stack(verts), ra, p)
-
-
-def split_between(corner_a, corner_b, ra):
-    """Where a tooth's tip is split between its two gaps: the tip circle's point midway
-    (in angle) between the two tip corners (same frame, both on the tip circle)."""
-    mid = corner_a + corner_b
-    return ra * mid / safe_norm(mid)[..., None]
-
-
 class GapGeometry(NamedTuple):
     """Every gap's two sides (NumPy): leading axes (z, 2 sides: ccw, cw), canonical
     frames; ``theta`` the gaps' axis angles (2πk/z + phase)."""
@@ -598,13 +550,6 @@ def _gap_outline(g: GapGeometry, k: int, n: int) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- contact
-def as_freeform(profile, arcs: int) -> FreeformProfile:
-    """``profile`` (ISO-type or free-form) as a free-form profile with K = ``arcs``."""
-    if isinstance(profile, ToothProfile):
-        return FreeformProfile.from_iso(profile, arcs)
-    return profile if profile.arcs == arcs else _refine(profile, arcs)
-
-
 def _refine(p: FreeformProfile, arcs: int) -> FreeformProfile:
     """The same outline with ``arcs`` arcs per flank: the last arc split (same curvature)
     at break points evenly spaced between its start and the tip."""
@@ -654,3 +599,8 @@ def stack_shapes(profiles: list[FreeformProfile]) -> FreeShape:
         flank("cw"),
         flank("ccw"),
     )
+
+
+@eqx.filter_jit  # one compile instead of hundreds of eager ops
+def _table(p: FreeformProfile):
+    return gap_table(p.contact_shape())[0]

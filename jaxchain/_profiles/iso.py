@@ -18,9 +18,9 @@ Outline of one gap, upper half (the lower half is its mirror image in the x axis
 
 from __future__ import annotations
 
-import abc
+import dataclasses
 import math
-from pathlib import Path
+from collections.abc import Sequence
 from typing import Literal, NamedTuple
 
 import equinox as eqx
@@ -28,13 +28,20 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._chain import ChainSpec, as_chain
-from ._numerics import is_concrete, safe_norm, safe_sqrt
+from .._chain import ChainSpec, as_chain
+from .._numerics import is_concrete, safe_norm, safe_sqrt
+from .base import AbstractProfile, AbstractShape, check_teeth
+from .freeform import FreeformProfile
+from .iso_shape import iso_nearest_gap, iso_signed_distance
 
-__all__ = ["ToothProfile", "ProfileGeometry", "iso606_limits"]
-
-MIN_TEETH = 7
-MAX_TEETH = 250
+__all__ = [
+    "ToothProfile",
+    "GapShape",
+    "ProfileGeometry",
+    "iso606_limits",
+    "iso_geometry",
+    "flank_meeting_diameter",
+]
 
 
 def _cbrt_mm(x_m):
@@ -56,7 +63,7 @@ def iso606_limits(chain: ChainSpec, teeth: int) -> dict[str, tuple[float, float]
     The *minimum tooth-gap form* is (ri min, α max, re max, da max); the *maximum* form
     is (ri max, α min, re min, da min).
     """
-    _check_teeth(teeth)
+    check_teeth(teeth)
     chain = as_chain(chain)
     z = teeth
     p = float(chain.pitch)
@@ -70,13 +77,6 @@ def iso606_limits(chain: ChainSpec, teeth: int) -> dict[str, tuple[float, float]
     }
 
 
-def _check_teeth(teeth):
-    if not isinstance(teeth, (int, np.integer)) or isinstance(teeth, bool):
-        raise ValueError(f"teeth must be an integer, got {teeth!r}")
-    if not MIN_TEETH <= teeth <= MAX_TEETH:
-        raise ValueError(f"teeth must be in [{MIN_TEETH}, {MAX_TEETH}], got {teeth}")
-
-
 class ProfileGeometry(NamedTuple):
     """Derived points of gap 0's upper half, sprocket frame [m] (see module docstring)."""
 
@@ -86,83 +86,6 @@ class ProfileGeometry(NamedTuple):
     tip_corner: Float[Array, 2]  # K, flank/tip
     tip_radius: Float[Array, ""]  # da / 2, or the flanks' meeting radius if smaller
     half_angle: Float[Array, ""]  # π / z
-
-
-REACH_MARGIN = 1.05  # roller radii beyond the tip circle a roller may still touch
-
-
-class AbstractProfile(eqx.Module):
-    """A sprocket's tooth profile: what every kind (ISO 606 :class:`ToothProfile`,
-    :class:`~jaxchain.FreeformProfile`) has, and what it derives alike from its ``teeth``,
-    ``pitch``, ``roller_diameter``, ``seating_radius`` and ``tip_diameter``: the pitch
-    circle, the reach of its teeth, its CAD export and its saving as JSON. Scenes,
-    builders and design spaces accept any of its kinds.
-
-    Each kind gives its outline (``outline(n, gap)``: one gap's tooth-gap outline, (n, 2)
-    [m] in the sprocket frame; ``sprocket_outline(n)``: the whole sprocket's)."""
-
-    # (each kind also has a ``tip_diameter`` [m]; declared in the kinds, after their own
-    # seat fields, so that their fields keep their order)
-    teeth: eqx.AbstractVar[int]
-    pitch: eqx.AbstractVar[Array]
-    roller_diameter: eqx.AbstractVar[Array]
-    seating_radius: eqx.AbstractVar[Array]
-
-    @abc.abstractmethod
-    def outline(self, n: int = 60, gap: int = 0) -> np.ndarray:
-        """Gap ``gap``'s outline, (n-ish, 2) points [m] in the sprocket frame."""
-
-    @abc.abstractmethod
-    def sprocket_outline(self, n: int = 30) -> np.ndarray:
-        """The whole sprocket's closed outline, (N, 2) points [m]."""
-
-    def uniform(self) -> AbstractProfile:
-        """This profile with every per-gap leaf replaced by its mean over the gaps (the
-        profile itself for a kind whose gaps are all alike)."""
-        return self
-
-    @property
-    def pitch_diameter(self) -> Array:
-        """d = p / sin(π/z) [m] (the nominal pitch circle; seats may be offset from it)."""
-        return self.pitch / jnp.sin(jnp.pi / self.teeth)
-
-    @property
-    def pitch_radius(self) -> Array:
-        return self.pitch_diameter / 2
-
-    @property
-    def roller_radius(self) -> Array:
-        return self.roller_diameter / 2
-
-    @property
-    def reach_radius(self) -> Array:
-        """The farthest from the axis a roller's centre can be and still touch a tooth [m]:
-        the tip radius plus 1.05 roller radii (the 5 % covers the contact onset's
-        regularization). Contact slots, their check and the meshing events read it."""
-        return self.tip_diameter / 2 + REACH_MARGIN * self.roller_radius
-
-    @property
-    def seat_clearance(self) -> Array:
-        """ri − d1/2 [m]: radial play of a roller centred in its seat (per gap where ri
-        is per gap)."""
-        return self.seating_radius - self.roller_radius
-
-    def to_dxf(self, path) -> Path:
-        """Write the whole sprocket's closed outline to ``path`` as exact DXF ARC entities
-        in millimetres (axis at the origin, gap 0 on +x), for CAD/CNC. Returns the path."""
-        from ._cad import write_dxf
-
-        return write_dxf(self, path)
-
-    def save(self, path) -> Path:
-        """Write the profile to ``path`` as human-readable JSON (every field; floats exact),
-        to keep or share a design; ``jc.load_profile(path)`` reads it back equal leaf for
-        leaf. Returns the path. Raises ``TypeError`` for a traced profile (inside ``jit``,
-        ``grad`` or ``vmap``)."""
-        # imported here: _profile_io imports this module and _freeform at its top
-        from ._profile_io import save_profile
-
-        return save_profile(self, path)
 
 
 class ToothProfile(AbstractProfile):
@@ -199,7 +122,7 @@ class ToothProfile(AbstractProfile):
         flank_radius: ArrayLike,
         tip_diameter: ArrayLike,
     ):
-        _check_teeth(teeth)
+        check_teeth(teeth)
         self.teeth = int(teeth)
         self.pitch = jnp.asarray(pitch, dtype=float)
         self.roller_diameter = jnp.asarray(roller_diameter, dtype=float)
@@ -253,17 +176,35 @@ class ToothProfile(AbstractProfile):
         kw.update(zip(names, vals, strict=True))
         # At the maximum form's corner of the standard (large z, small d1/p, e.g. 06B with
         # z = 120) the flanks meet before the tip circle: lower the tip to where they meet.
-        reach = 2 * _flank_centre_line_radius(_np_geometry_of(**kw), kw["flank_radius"])
-        kw["tip_diameter"] = min(kw["tip_diameter"], reach * (1 - 1e-9))
+        kw["tip_diameter"] = min(kw["tip_diameter"], flank_meeting_diameter(**kw) * (1 - 1e-9))
         return cls(**kw)
 
     # ------------------------------------------------------------------ derived
     def geometry(self) -> ProfileGeometry:
         """Derived points of gap 0 (upper half), differentiable in the profile's leaves."""
-        return _geometry(
+        return iso_geometry(
             self.teeth, self.pitch, self.seating_radius, self.seating_angle,
             self.flank_radius, self.tip_diameter,
         )  # fmt: skip
+
+    def contact_shape(self) -> GapShape:
+        """What the contact reads (a :class:`GapShape`); its shape parameters must be
+        scalars (for a batch of profiles use ``jax.vmap`` over the profile; per-gap
+        values: :class:`~jaxchain.FreeformProfile`)."""
+        names = ("seating_radius", "seating_angle", "flank_radius", "tip_diameter", "pitch")
+        shaped = {n: np.shape(getattr(self, n)) for n in names if np.shape(getattr(self, n))}
+        if shaped:
+            raise ValueError(
+                f"the profile's shape parameters must be scalars, got shapes {shaped}; for "
+                "a batch of profiles use jax.vmap over the profile (per-gap values: "
+                "jc.FreeformProfile)"
+            )
+        return GapShape.stack([self], squeeze=True)
+
+    def freeform(self, arcs: int | None = None) -> FreeformProfile:
+        """The same outline as a free-form profile: both flanks one arc of curvature 1/re
+        split into ``arcs`` arcs (default 1), seat angle α/2 on each side."""
+        return FreeformProfile.from_iso(self, 1 if arcs is None else arcs)
 
     # ------------------------------------------------------------------ outline
     def outline(self, n: int = 60, gap: int = 0) -> np.ndarray:
@@ -305,7 +246,7 @@ def _np_geometry(profile: ToothProfile):
     return tuple(np.asarray(x, dtype=float) for x in g)
 
 
-def _geometry(z, pitch, ri, alpha, re, da) -> ProfileGeometry:
+def iso_geometry(z, pitch, ri, alpha, re, da) -> ProfileGeometry:
     """Derived points of gap 0's upper half from the profile parameters (see module doc)."""
     ra = da / 2
     half = alpha / 2
@@ -334,8 +275,14 @@ def _geometry(z, pitch, ri, alpha, re, da) -> ProfileGeometry:
 def _np_geometry_of(**kw) -> tuple:
     """Derived points (NumPy) of an unvalidated parameter set."""
     names = ("pitch", "seating_radius", "seating_angle", "flank_radius", "tip_diameter")
-    g = _geometry(kw["teeth"], *(jnp.asarray(kw[n], dtype=float) for n in names))
+    g = iso_geometry(kw["teeth"], *(jnp.asarray(kw[n], dtype=float) for n in names))
     return tuple(np.asarray(x, dtype=float) for x in g)
+
+
+def flank_meeting_diameter(**kw) -> float:
+    """The diameter [m] where the two flanks of a tooth meet (on its centre line) for the
+    profile fields ``kw`` (unvalidated): a tip circle beyond it is never reached."""
+    return 2 * _flank_centre_line_radius(_np_geometry_of(**kw), kw["flank_radius"])
 
 
 def _flank_centre_line_radius(geo, re) -> float:
@@ -407,3 +354,46 @@ def _validate(p: ToothProfile) -> None:
             f"seating_angle {alpha:.4f} rad is too large for seating_radius {ri:.6g} m on this "
             "pitch circle: the seat arc would curl back over itself"
         )
+
+
+class GapShape(AbstractShape):
+    """What the contact reads of a :class:`ToothProfile`, with the tooth count an array
+    leaf instead of static: the shapes of sprockets with different tooth counts stack into
+    one pytree, and the contact of every sprocket is one vmapped evaluation (one copy of
+    the contact in the traced program, whatever the number of sprockets)."""
+
+    teeth: Float[Array, ""]
+    pitch: Float[Array, ""]
+    roller_diameter: Float[Array, ""]
+    seating_radius: Float[Array, ""]
+    seating_angle: Float[Array, ""]
+    flank_radius: Float[Array, ""]
+    tip_diameter: Float[Array, ""]
+
+    @classmethod
+    def stack(cls, profiles: Sequence[ToothProfile], squeeze: bool = False) -> GapShape:
+        """The profiles' shapes along a leading axis (one per profile; ``squeeze``: one
+        profile's, without the axis)."""
+
+        def field(name):
+            dtype = jnp.result_type(profiles[0].pitch)
+            xs = [jnp.asarray(getattr(p, name), dtype=dtype) for p in profiles]
+            return xs[0] if squeeze else jnp.stack(xs)
+
+        return cls(*(field(f.name) for f in dataclasses.fields(cls)))
+
+    @property
+    def roller_radius(self) -> Array:
+        return self.roller_diameter / 2
+
+    def signed_distance(self, point):
+        return iso_signed_distance(self, point)
+
+    def nearest_gap(self, point):
+        return iso_nearest_gap(self, point)
+
+    def geometry(self) -> ProfileGeometry:
+        return iso_geometry(
+            self.teeth, self.pitch, self.seating_radius, self.seating_angle,
+            self.flank_radius, self.tip_diameter,
+        )  # fmt: skip

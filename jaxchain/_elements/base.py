@@ -1,0 +1,104 @@
+"""The force-element protocol: what every element of a drive (link springs, joints and
+their friction, roller/tooth and roller/shoe contacts, tensioner springs, anchors,
+gravity, and a user's own) tells the equations of motion.
+
+The vector field sums the elements' :class:`Effect` s; the energy sums their stored
+energies; the saved outputs, the stable-step estimate of the statics and the solve's
+contact-slot check ask each element in turn. A new element is one subclass.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Any, NamedTuple
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+__all__ = ["AbstractElement", "Effect"]
+
+
+class Effect(NamedTuple):
+    """What one force element does at one instant.
+
+    Attributes:
+        body: (N, 3) generalized forces on the chain's bodies: force (fx, fy) [N] at the
+            body's origin and torque [N·m] about it.
+        sprocket_torque: (S,) torque on each sprocket about its axis [N·m],
+            counter-clockwise positive; None: none.
+        sprocket_force: (S, 2) force on each sprocket's axis [N]; None: none.
+        arm_torque: (A,) torque on each tensioner arm about its pivot [N·m]; None: none.
+        state_rate: d/dt of the element's own states (``n_states`` of them); None when it
+            has none.
+        tension: the tensions it carries along the chain [N] (link springs, pin/bush
+            joints), reported as link tension; None: it carries none.
+        report: named quantities for :class:`~jaxchain._dynamics.Forces` (for example
+            ``"roller_normal"``); None: none.
+    """
+
+    body: Float[Array, "N 3"]
+    sprocket_torque: Float[Array, " S"] | None = None
+    sprocket_force: Float[Array, "S 2"] | None = None
+    arm_torque: Float[Array, " A"] | None = None
+    state_rate: Float[Array, " F"] | None = None
+    tension: Float[Array, " E"] | None = None
+    report: dict[str, Any] | None = None
+
+
+class AbstractElement(eqx.Module):
+    """A force element of a drive.
+
+    Subclass it, implement :meth:`effect`, and add an instance to a scene with
+    ``scene.add_elements(element)``. The other methods have defaults: an element with no
+    stored energy (a damper, friction), no outputs, no states, no stiffness limit on the
+    step.
+
+    ``energy_kind`` names the energy its :meth:`energy` belongs to: ``"elastic"`` (the
+    default) or ``"gravity"``.
+    """
+
+    energy_kind = "elastic"
+
+    def n_states(self, scene) -> int:
+        """How many states of its own it carries in ``DriveState.bristle`` (static)."""
+        del scene
+        return 0
+
+    @abc.abstractmethod
+    def effect(self, t, y, scene, state) -> Effect:
+        """Its forces at time ``t`` [s] in state ``y`` (a ``DriveState``) of ``scene``;
+        ``state``: its own states (``n_states`` of them; zeros where ``y`` carries
+        none, as in the statics), or None when it has none."""
+
+    def energy(self, t, y, scene) -> Array:
+        """Energy it stores [J] (0: it stores none)."""
+        del t, scene
+        return jnp.zeros((), y.q.dtype)
+
+    def power(self, t, y, scene, state=None) -> Array:
+        """Power of its forces on the bodies, sprockets and arms [W]."""
+        e = self.effect(t, y, scene, state)
+        p = jnp.sum(e.body * y.v)
+        if e.sprocket_torque is not None:
+            p = p + jnp.sum(e.sprocket_torque * y.omega)
+        if e.arm_torque is not None:
+            p = p + jnp.sum(e.arm_torque * y.arm_rate)
+        return p
+
+    def outputs(self, t, y, scene, effect: Effect) -> dict[str, Array]:
+        """Named quantities it adds to a solution's saved outputs."""
+        del t, y, scene, effect
+        return {}
+
+    def max_stiffness(self, scene, force) -> Array | None:
+        """Its stiffest tangent stiffness [N/m] at a contact force ``force`` [N]: its part of
+        the statics' stable-step estimate; None: it sets no limit."""
+        del scene, force
+        return None
+
+    def slots_ok(self, y, scene) -> Array:
+        """Whether the rollers it checks cover every roller that can reach it (elements
+        that check only the nearest rollers); True for the others."""
+        del y, scene
+        return jnp.asarray(True)

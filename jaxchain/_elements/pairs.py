@@ -1,0 +1,179 @@
+"""Two-point force elements: the lumped chain's link springs and the clearance chain's
+revolute clearance joints (pin/bush, bush/roller), with the joints' contact friction."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+from .._contact.base import AbstractContactLaw
+from .._contact.dahl import DahlFriction
+from .._contact.friction import CoulombFriction
+from .._contact.stiffness import contact_potential, tangent_stiffness
+from .._kinematics import perp, points, rot, scatter
+from .._numerics import safe_norm, safe_normalize
+from .base import AbstractElement, Effect
+
+__all__ = ["LinkSprings", "ClearanceJoints", "PairGroup", "chain_tension"]
+
+
+class LinkSprings(eqx.Module):
+    """Bilateral spring-dampers (the elastic links of the lumped chain).
+
+    Tension T = k·(ℓ − ℓ₀) + c·ℓ̇ [N] (> 0 pulls the two points together).
+    """
+
+    stiffness: Float[Array, ...]
+    damping: Float[Array, ...]
+    rest_length: Float[Array, ...]
+
+    def tension(self, length, rate, impact_speed):
+        del impact_speed
+        return self.stiffness * (length - self.rest_length) + self.damping * rate
+
+    def stored(self, length):
+        """Elastic energy at ``length`` [J]."""
+        return 0.5 * self.stiffness * (length - self.rest_length) ** 2
+
+    def tangent(self, force):
+        """Largest stiffness [N/m] (linear springs: at any force)."""
+        del force
+        return jnp.max(self.stiffness)
+
+
+class ClearanceJoints(eqx.Module):
+    """Revolute clearance joints: a pin (point a) inside a hole (point b).
+
+    The eccentricity ℓ = |x_b − x_a| is the pin's offset from the hole centre; contact when
+    ℓ exceeds the radial clearance, with ``law`` (e.g. Johnson's conformal law, whose
+    ``clearance`` field is the radial clearance). Tension T = law(ℓ − c, ℓ̇) ≥ 0.
+
+    With ``friction``, the contact also carries a tangential force at the contact point,
+    against the sliding of the pin's surface (radius ``radius``) on the hole's (radius
+    ``radius + clearance``): the joint's friction moment, about μ·T·radius while it
+    articulates. A :class:`~jaxchain.contact.DahlFriction` keeps one pre-sliding state per
+    joint in ``DriveState.bristle``; a :class:`~jaxchain.contact.CoulombFriction` none.
+    """
+
+    law: AbstractContactLaw
+    clearance: Float[Array, ""]
+    friction: CoulombFriction | DahlFriction | None = None
+    radius: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
+
+    def tension(self, length, rate, impact_speed):
+        return self.law.normal_force(length - self.clearance, rate, impact_speed)
+
+    def stored(self, length):
+        """Elastic energy of the contact at eccentricity ``length`` [J]."""
+        return contact_potential(self.law, length - self.clearance)
+
+    def tangent(self, force):
+        """Contact stiffness [N/m] at ``force`` [N]."""
+        return tangent_stiffness(self.law, force)
+
+
+class _PairState(NamedTuple):
+    tension: Array  # (P,) [N]
+    u: Array  # (P, 2) unit direction a→b
+    arm_a: Array  # (P, 2) point a from its body's origin
+    arm_b: Array
+    dv: Array  # (P, 2) velocity of point b minus point a
+
+
+class PairGroup(AbstractElement):
+    """Force elements between a point on body ``a`` and a point on body ``b``.
+
+    Attributes:
+        a, b: body indices (P,).
+        ra, rb: the points in the bodies' own frames (P, 2) [m].
+        element: the force law (LinkSprings or ClearanceJoints), fields scalar or (P,).
+        carries_tension: whether these elements transmit the chain's tension (links and
+            pin/bush joints), reported as link tension; False for bush/roller joints.
+    """
+
+    a: Int[Array, " P"]
+    b: Int[Array, " P"]
+    ra: Float[Array, "P 2"]
+    rb: Float[Array, "P 2"]
+    element: LinkSprings | ClearanceJoints
+    carries_tension: bool = eqx.field(static=True, default=True)
+
+    @property
+    def count(self) -> int:
+        return int(np.shape(self.a)[0])
+
+    def state(self, q, v, impact_speed, cs=None) -> _PairState:
+        """Tensions, unit directions a→b, lever arms and relative velocity."""
+        xa, va, arm_a = points(q, v, self.a, self.ra, cs)
+        xb, vb, arm_b = points(q, v, self.b, self.rb, cs)
+        d = xb - xa
+        u = safe_normalize(d, jnp.array([1.0, 0.0], dtype=q.dtype))
+        rate = jnp.sum(u * (vb - va), axis=-1)
+        tension = self.element.tension(safe_norm(d), rate, impact_speed)
+        return _PairState(tension, u, arm_a, arm_b, vb - va)
+
+    @property
+    def _dahl(self) -> bool:
+        el = self.element
+        return isinstance(el, ClearanceJoints) and isinstance(el.friction, DahlFriction)
+
+    def n_states(self, scene) -> int:
+        return self.count if self._dahl else 0
+
+    def effect(self, t, y, scene, state) -> Effect:
+        n = scene.n_bodies
+        ps = self.state(y.q, y.v, scene.impact_speed, rot(y.q[:, 2]))
+        f = ps.tension[:, None] * ps.u
+        body = scatter(n, self.a, ps.arm_a, f) + scatter(n, self.b, ps.arm_b, -f)
+        rate, report = None, None
+        el = self.element
+        if isinstance(el, ClearanceJoints) and el.friction is not None:
+            gen, rate = self.friction_forces(n, ps, y.v, state)
+            body = body + gen
+            report = {"friction_power": jnp.sum(gen * y.v)}
+        return Effect(
+            body=body,
+            state_rate=rate,
+            tension=ps.tension if self.carries_tension else None,
+            report=report,
+        )
+
+    def friction_forces(self, n: int, ps: _PairState, v, bristle=None):
+        """Generalized forces of a clearance joint's contact friction: the tangential force
+        at the contact point (where the pin at a touches the hole around b, on the side
+        −u), against the sliding of the pin's surface on the hole's; and, for a Dahl law,
+        the rate of its states ``bristle`` (else None)."""
+        el = self.element
+        r_pin, r_hole = el.radius, el.radius + el.clearance
+        tang = perp(ps.u)
+        slip = -jnp.sum(ps.dv * tang, -1) - v[self.a, 2] * r_pin + v[self.b, 2] * r_hole
+        if isinstance(el.friction, DahlFriction):
+            ft = el.friction.force(ps.tension, bristle, slip)[:, None] * tang
+            rate = el.friction.rate(bristle, slip)
+        else:
+            ft = el.friction.force(ps.tension, slip)[:, None] * tang
+            rate = None
+        on_a = scatter(n, self.a, ps.arm_a - r_pin * ps.u, ft)
+        return on_a + scatter(n, self.b, ps.arm_b - r_hole * ps.u, -ft), rate
+
+    def energy(self, t, y, scene) -> Array:
+        xa, _, _ = points(y.q, y.v, self.a, self.ra)
+        xb, _, _ = points(y.q, y.v, self.b, self.rb)
+        return jnp.sum(self.element.stored(safe_norm(xb - xa)))
+
+    def max_stiffness(self, scene, force) -> Array:
+        return self.element.tangent(force)
+
+
+def chain_tension(y, scene) -> Array:
+    """(E,) tensions of the scene's tension-carrying elements [N] (link springs, pin/bush
+    joints), in the order of ``scene.pairs``."""
+    cs = rot(y.q[:, 2])
+    parts = [
+        g.state(y.q, y.v, scene.impact_speed, cs).tension for g in scene.pairs if g.carries_tension
+    ]
+    return jnp.concatenate(parts) if parts else jnp.zeros((0,), y.q.dtype)

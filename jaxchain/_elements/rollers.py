@@ -1,0 +1,143 @@
+"""Contact of the rollers with the sprockets' teeth."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._contact.base import AbstractContactLaw
+from .._contact.friction import CoulombFriction
+from .._contact.stiffness import contact_potential, tangent_stiffness
+from .._kinematics import nearest, points, scatter
+from .._numerics import cross2
+from .._profiles.contact import gap_contact, gap_shapes, prepare_shapes
+from .base import AbstractElement, Effect
+
+__all__ = ["RollerTeeth", "RollerContacts", "roller_contacts", "prepare"]
+
+
+class RollerContacts(NamedTuple):
+    """The roller/tooth contacts of one instant."""
+
+    force: Float[Array, "R 2"]  # total contact force on each roller (all sprockets) [N]
+    arm: Float[Array, "R 2"]  # roller centre from its body's origin [m]
+    normal: Float[Array, "S R"]  # normal force per sprocket and roller [N]
+    sprocket_torque: Float[Array, " S"]
+    sprocket_force: Float[Array, "S 2"]
+
+
+def _contact_slots(scene, n_rollers: int) -> int | None:
+    """Rollers checked per sprocket (static): the most any sprocket asks for, or None
+    (every roller) when one asks for all."""
+    slots = [s.contact_slots for s in scene.sprockets]
+    if any(k is None or k >= n_rollers for k in slots):
+        return None
+    return max(slots)
+
+
+def prepare(scene):
+    """``scene`` with its sprockets' contact shapes computed once (with what each shape
+    computes ahead: a free-form profile's every gap outline), for the steps of one solve to
+    read: the shapes depend on the profiles alone, so computing them in every evaluation
+    of the contact would repeat the same work at every stage, and a gradient would pull
+    back through them at every stage too."""
+    shapes = prepare_shapes(gap_shapes([s.profile for s in scene.sprockets]))
+    return eqx.tree_at(lambda s: s.prepared_shapes, scene, shapes, is_leaf=lambda x: x is None)
+
+
+def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
+    """Rollers against every sprocket (each roller sees its nearest gap: O(1) per pair).
+
+    One vmapped evaluation over the sprockets (their tooth shapes stacked): the contact
+    appears once in the traced program, so its size and the gradient's compile time do
+    not grow with the number of sprockets."""
+    xr, vr, arm_r = points(y.q, y.v, scene.roller_body, scene.roller_offset, cs)
+    r = scene.roller_radius
+    n_r = xr.shape[0]
+    slots = _contact_slots(scene, n_r)
+    shapes = scene.prepared_shapes
+    if shapes is None:
+        shapes = gap_shapes([s.profile for s in scene.sprockets])
+    centres = jnp.stack([s.centre for s in scene.sprockets])
+
+    def one(shape, centre, theta, omega):
+        c, s = jnp.cos(theta), jnp.sin(theta)
+        rel_all = xr - centre
+        sel = jnp.arange(n_r) if slots is None else nearest(rel_all, slots)[0]
+        rel, vsel = rel_all[sel], vr[sel]
+        local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+        depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(shape, local)
+        nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
+        arm_s = rel - r * nrm  # contact point on the roller surface, from the axis
+        vsurf = omega * jnp.stack([-arm_s[:, 1], arm_s[:, 0]], -1)
+        vrel = vsel - vsurf
+        approach = -jnp.sum(nrm * vrel, -1)
+        fn = law.normal_force(depth, approach, scene.impact_speed)
+        f = fn[:, None] * nrm
+        if friction is not None:
+            tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
+            slip = jnp.sum(tang * vrel, -1)
+            f = f + friction.force(fn, slip)[:, None] * tang
+        return (
+            jnp.zeros_like(xr).at[sel].add(f),
+            jnp.zeros(n_r, fn.dtype).at[sel].add(fn),
+            jnp.sum(cross2(arm_s, -f)),
+            -jnp.sum(f, axis=0),
+        )
+
+    if isinstance(shapes, tuple):  # sprockets of kinds that do not stack: one by one
+        each = [one(*a) for a in zip(shapes, centres, y.theta, y.omega, strict=True)]
+        f, normal, torque, pull = (jnp.stack(x) for x in zip(*each, strict=True))
+    else:
+        f, normal, torque, pull = jax.vmap(one)(shapes, centres, y.theta, y.omega)
+    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull)
+
+
+class RollerTeeth(AbstractElement):
+    """The rollers against every sprocket's teeth: normal contact ``law`` and
+    ``friction`` (None: frictionless). Each roller sees its sprocket's nearest gap."""
+
+    law: AbstractContactLaw
+    friction: CoulombFriction | None
+
+    def effect(self, t, y, scene, state) -> Effect:
+        rc = roller_contacts(y, scene, self.law, self.friction)
+        return Effect(
+            body=scatter(scene.n_bodies, scene.roller_body, rc.arm, rc.force),
+            sprocket_torque=rc.sprocket_torque,
+            sprocket_force=rc.sprocket_force,
+            report={"roller_normal": rc.normal},
+        )
+
+    def energy(self, t, y, scene) -> Array:
+        xr, _, _ = points(y.q, y.v, scene.roller_body, scene.roller_offset)
+        total = jnp.zeros((), y.q.dtype)
+        for k, spr in enumerate(scene.sprockets):
+            c, s = jnp.cos(y.theta[k]), jnp.sin(y.theta[k])
+            rel = xr - spr.centre
+            local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
+            depth, _ = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
+            total = total + jnp.sum(contact_potential(self.law, depth))
+        return total
+
+    def max_stiffness(self, scene, force) -> Array:
+        return tangent_stiffness(self.law, force)
+
+    def slots_ok(self, y, scene) -> Array:
+        """The farthest roller checked lies beyond the tip radius + 1.05 roller radii
+        (all tooth material lies inside the tip circle), or every roller is checked."""
+        xr, _, _ = points(y.q, y.v, scene.roller_body, scene.roller_offset)
+        slots = _contact_slots(scene, xr.shape[0])
+        if slots is None:
+            return jnp.asarray(True)
+        reach = jnp.stack([s.profile.reach_radius for s in scene.sprockets])
+        centres = jnp.stack([s.centre for s in scene.sprockets])
+
+        def one(reach, centre):
+            return nearest(xr - centre, slots)[1] > reach**2
+
+        return jnp.all(jax.vmap(one)(reach, centres))

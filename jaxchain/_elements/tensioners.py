@@ -1,0 +1,65 @@
+"""Pivoting tensioner arms: their preloaded spring and damper."""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .base import AbstractElement, Effect
+
+__all__ = ["Tensioners"]
+
+
+class Tensioners(AbstractElement):
+    """Pivoting tensioner arms: rigid arms turning about fixed pivots, each pressed onto
+    the chain by a preloaded torsional spring with a linear (hydraulic-style) damper.
+
+    The arm's angle ψ is part of the ODE state (``DriveState.arm``). Its rotation toward
+    the chain is φ = s·(ψ − ψ_ref) (s = ``sense``, ψ_ref = ``layout_angle``), and the
+    spring and damper turn it toward the chain by τ = preload − stiffness·φ −
+    damping·φ̇ [N·m]. Its shoe is the matching entry of the scene's :class:`Shoes`.
+
+    Attributes:
+        pivot: (A, 2) pivot positions [m], world frame.
+        layout_angle: (A,) the reference angle ψ_ref [rad]: world angle of the line from
+            the pivot to the shoe's middle where the shoe geometry is given.
+        angle0: (A,) the arm angle at t = 0 [rad] (same convention as ``layout_angle``).
+        rate0: (A,) the arm's angular rate at t = 0 [rad/s].
+        inertia: (A,) polar moment of inertia about the pivot [kg·m²], > 0.
+        stiffness: (A,) torsional spring rate [N·m/rad], ≥ 0.
+        damping: (A,) damper rate [N·m·s/rad], ≥ 0.
+        preload: (A,) spring torque toward the chain at ψ_ref [N·m].
+        sense: (A,) +1 if a counter-clockwise turn moves the shoe toward the chain, −1 if
+            a clockwise one does.
+    """
+
+    pivot: Float[Array, "A 2"]
+    layout_angle: Float[Array, " A"]
+    angle0: Float[Array, " A"]
+    rate0: Float[Array, " A"]
+    inertia: Float[Array, " A"]
+    stiffness: Float[Array, " A"]
+    damping: Float[Array, " A"]
+    preload: Float[Array, " A"]
+    sense: Float[Array, " A"]
+
+    @property
+    def count(self) -> int:
+        return int(np.shape(self.pivot)[0])
+
+    def spring_torque(self, angle, rate):
+        """(A,) torque of spring and damper on each arm [N·m], world sense."""
+        phi = self.sense * (angle - self.layout_angle)
+        press = self.preload - self.stiffness * phi - self.damping * self.sense * rate
+        return self.sense * press
+
+    def effect(self, t, y, scene, state) -> Effect:
+        return Effect(body=jnp.zeros_like(y.q), arm_torque=self.spring_torque(y.arm, y.arm_rate))
+
+    def energy(self, t, y, scene) -> Array:
+        phi = self.sense * (y.arm - self.layout_angle)
+        return jnp.sum(0.5 * self.stiffness * phi**2 - self.preload * phi)
+
+    def outputs(self, t, y, scene, effect: Effect) -> dict[str, Array]:
+        return {"tensioner_angle": y.arm, "tensioner_torque": effect.arm_torque}

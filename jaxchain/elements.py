@@ -1,0 +1,24 @@
+"""Force elements: everything that acts on a drive's bodies, one protocol.
+
+element = MyDamper(...)                       # a subclass of AbstractElement
+scene = scene.add_elements(element)           # simulate, settle, design as usual
+scene.force_elements                          # the drive's own elements, then the added
+
+A subclass implements ``effect(t, y, scene, state) -> Effect`` (generalized forces on
+the chain's bodies, torques on sprockets and tensioner arms, the rates of its own
+states) and may add its stored ``energy``, its ``outputs`` (saved by ``simulate``), its
+``max_stiffness`` (the statics' stable step) and ``n_states`` (states of its own).
+"""
+
+from ._elements.anchors import Anchors as Anchors
+from ._elements.base import AbstractElement as AbstractElement, Effect as Effect
+from ._elements.gravity import Gravity as Gravity
+from ._elements.joint_friction import JointFriction as JointFriction
+from ._elements.pairs import (
+    ClearanceJoints as ClearanceJoints,
+    LinkSprings as LinkSprings,
+    PairGroup as PairGroup,
+)
+from ._elements.rollers import RollerTeeth as RollerTeeth
+from ._elements.shoes import Shoes as Shoes
+from ._elements.tensioners import Tensioners as Tensioners
