@@ -1,0 +1,1 @@
+"""Force elements: the protocol (:mod:`.base`) and every element a drive is built of."""
