@@ -40,7 +40,7 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, header, parse, parser, save_chart  # noqa: E402
+from benchmarks.common import finish, header, parse, parser, save_chart  # noqa: E402
 from optimize.clearance import DISCARD, measure  # noqa: E402
 
 CHAIN, TEETH, TENSION, BASE_RPM = "08B", 18, 1000.0, 1000.0

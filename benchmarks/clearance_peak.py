@@ -68,7 +68,7 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, header, parse, parser, save_chart  # noqa: E402
+from benchmarks.common import finish, header, parse, parser, save_chart  # noqa: E402
 
 CHAIN, TEETH, TENSION = "08B", 18, 1000.0
 THRESHOLD, WINDOW = 1.0, 0.5  # EngagementPeaks' defaults [N], [tooth periods]

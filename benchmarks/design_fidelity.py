@@ -37,8 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, header, parse, parser, save_chart
-from benchmarks.pattern_design import add_model_options
+from benchmarks.common import finish, header, parse, parser, save_chart
+from benchmarks.designs import add_model_options
 
 LAWS = ("johnson", "hertz")
 
@@ -106,9 +106,14 @@ def main(argv=None) -> dict:
     jax.config.update("jax_enable_x64", True)
     import jax.numpy as jnp
 
-    from benchmarks import gradient_cost as gc
-    from benchmarks.pattern_design import design_objectives, model_options, suffix
-    from benchmarks.pattern_remeasure import laws, measure
+    from benchmarks import designs as gc
+    from benchmarks.designs import (
+        design_objectives,
+        laws,
+        model_options,
+        remeasure as measure,
+        suffix,
+    )
 
     start = time.perf_counter()
     sigmas, count = ([1.0], 2) if args.quick else (args.sigmas, args.patterns)

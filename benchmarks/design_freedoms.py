@@ -22,7 +22,7 @@ import json
 import time
 from pathlib import Path
 
-from benchmarks._cli import finish, header, parse, parser, shown
+from benchmarks.common import finish, header, parse, parser, shown
 
 RESULTS = Path(__file__).parent / "results"
 ISO = RESULTS / "optimize_iso" / "results.json"

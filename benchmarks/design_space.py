@@ -64,7 +64,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import OUT, loadavg, machine_info, parse, parser  # noqa: E402  # noqa: E402
+from benchmarks.common import OUT, loadavg, machine_info, parse, parser  # noqa: E402  # noqa: E402
 from optimize.problem import (  # noqa: E402
     Problem,
     Settings,

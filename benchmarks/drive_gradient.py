@@ -37,8 +37,20 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, header, parse, parser, save_chart
-from benchmarks.quiet_drive import CHAIN, LOAD, N_LINKS, PRETENSION, Z_DRIVEN, Z, drive_scene
+from benchmarks.common import (
+    DRIVE_CHAIN as CHAIN,
+    DRIVE_LOAD as LOAD,
+    DRIVE_N_LINKS as N_LINKS,
+    DRIVE_PRETENSION as PRETENSION,
+    DRIVE_Z as Z,
+    DRIVE_Z_DRIVEN as Z_DRIVEN,
+    finish,
+    header,
+    parse,
+    parser,
+    quiet_drive_scene as drive_scene,
+    save_chart,
+)
 
 RPM = 1000.0
 TAKE_UP = 2 * PRETENSION  # as jc.scenes.drive settles the drive

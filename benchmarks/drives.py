@@ -47,7 +47,7 @@ jax.config.update("jax_enable_compilation_cache", False)
 
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import (  # noqa: E402
+from benchmarks.common import (  # noqa: E402
     finish,
     machine_info,  # noqa: E402
     parse,

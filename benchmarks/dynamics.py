@@ -33,27 +33,9 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, parse, parser  # noqa: E402
+from benchmarks.common import FRICTIONLESS, parse, parser, vf_time  # noqa: E402
 
 STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
-
-
-def vf_time(scene, n=2000) -> float:
-    """µs per vector-field call inside a jitted loop."""
-    y0 = jc.initial_state(scene)
-
-    @jax.jit
-    def run(y, sc):
-        def body(i, y):
-            d = jc.vector_field(i * 1e-9, y, sc)
-            return jax.tree_util.tree_map(lambda a, b: a + 1e-15 * b, y, d)
-
-        return jax.lax.fori_loop(0, n, body, y)
-
-    jax.block_until_ready(run(y0, scene))
-    t = time.perf_counter()
-    jax.block_until_ready(run(y0, scene))
-    return (time.perf_counter() - t) / n * 1e6
 
 
 def timed_run(scene, t1, **kw):

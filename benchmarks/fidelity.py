@@ -37,14 +37,14 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import (  # noqa: E402
+from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
     finish,
     machine_info,  # noqa: E402
     parse,
     parser,
+    tooth_period,  # noqa: E402
 )
-from benchmarks.work_precision import tooth_period  # noqa: E402
 
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)

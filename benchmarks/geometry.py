@@ -35,14 +35,14 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import (  # noqa: E402
+from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
     finish,
     machine_info,  # noqa: E402
     parse,
     parser,
+    vf_time,
 )
-from benchmarks.dynamics import vf_time  # noqa: E402
 
 CHAIN = "08B"
 K = 3

@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 from jax.flatten_util import ravel_pytree  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import finish, header, parse, parser, save_chart  # noqa: E402
+from benchmarks.common import finish, header, parse, parser, save_chart  # noqa: E402
 
 CHAIN, TEETH, TENSION = "08B", 18, 1000.0
 DAHL = jc.scenes.CLEARANCE_JOINT_FRICTION

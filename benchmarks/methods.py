@@ -7,16 +7,16 @@ Writes ``benchmarks/results/methods.json`` and ``methods.png`` (best objective s
 against simulation-equivalents, per method, per dimension).
 
 Objective, the same for every method and dimension: the design objective of
-:mod:`benchmarks.gradient_cost` (``gradient_cost.objective``: 08B engagement, z = 18,
+:mod:`benchmarks.gradient_cost` (``designs.objective``: 08B engagement, z = 18,
 1000 rpm, 1000 N, one operating point, design contact law, fixed 4 µs steps over two
 tooth periods, the soft peak roller/tooth force of the second [N], its window sampled
 ``SAMPLES`` times per step as in ``python -m optimize``; ``--samples 0`` integrates it
 by the solver's stages, which ripples the value when a force peak is shorter than a step)
 over its design spaces
-(``gradient_cost.spaces``): 4 coordinates (the ISO 606 box), 36 (per-gap seating radius
+(``designs.spaces``): 4 coordinates (the ISO 606 box), 36 (per-gap seating radius
 and clockwise seat angle) and 72 (per-gap seating radius, both seat angles and seat
 offset). ``--dimensions 36g`` adds the 36-coordinate space on the every-gap objective
-(``gradient_cost.every_gap_objective``: six solves of four tooth periods, the sprocket
+(``designs.every_gap_objective``: six solves of four tooth periods, the sprocket
 turned by three pitches from one to the next, so that every gap meshes once in the
 window and every per-gap coordinate is live; budget 150). Every evaluation builds and
 settles the scene for its design
@@ -26,7 +26,7 @@ the statics solve is not counted as a simulation.
 Every method starts at u = 0 (the middle of each box) and gets the same budget of
 simulation-equivalents at a dimension. A value is one simulation; a value + gradient
 counts as ``ratio`` simulations, the ratio measured in this run at each dimension by
-``gradient_cost.measure`` (the solve alone, the least of interleaved warm calls). The
+``designs.measure`` (the solve alone, the least of interleaved warm calls). The
 wall-time ratio of the run's evaluations, statics included, is reported beside it.
 
 Methods:
@@ -69,15 +69,15 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from benchmarks import gradient_cost  # noqa: E402
-from benchmarks._cli import (  # noqa: E402
+from benchmarks import designs  # noqa: E402
+from benchmarks.common import (  # noqa: E402
     finish,
     machine_info,  # noqa: E402
     parse,
     parser,
 )
 
-LEARNING_RATE = 1.0  # Adam's step in u (the sigmoid coordinate of each box)
+LEARNING_RATE = designs.LEARNING_RATE
 SIGMA0 = 1.0  # CMA-ES's initial step size in u
 TARGET_FRACTION = 0.9  # the common target: this fraction of the largest decrease found
 FAILED = 1e6  # the value a gradient-free method sees for a failed solve [N]
@@ -97,22 +97,17 @@ def plan(quick: bool) -> dict:
             "seeds": (1, 2, 3), "repeats": 5}  # fmt: skip
 
 
-def space_of(name: str, spaces: dict):
-    """The design space of a row ("36g": the 36-coordinate space)."""
-    return spaces[name.removesuffix("g")]
-
-
 def objective_of(name: str, space, dt: float, samples: int, **kwargs):
-    """The objective of a row: ``gradient_cost.objective``, or for "…g" rows
-    ``gradient_cost.every_gap_objective``."""
-    make = gradient_cost.every_gap_objective if name.endswith("g") else gradient_cost.objective
+    """The objective of a row: ``designs.objective``, or for "…g" rows
+    ``designs.every_gap_objective``."""
+    make = designs.every_gap_objective if name.endswith("g") else designs.objective
     return make(space, dt=dt, samples=samples, **kwargs)
 
 
 def saved_steps(settings: dict) -> tuple[float, int]:
     """The step and soft-peak samples a result file's rows were run with (files written
     before ``samples`` was recorded integrated the soft peak: 0)."""
-    return settings.get("dt", gradient_cost.DT), settings.get("samples", 0)
+    return settings.get("dt", designs.DT), settings.get("samples", 0)
 
 
 class _Budget(Exception):
@@ -332,7 +327,7 @@ def analyse(row: dict) -> None:
 
 
 def study(name: str, space, budget: float, seeds, repeats: int, dt: float, samples: int) -> dict:
-    cost = gradient_cost.measure(space, repeats, obj=objective_of(name, space, dt, samples))
+    cost = designs.cost_of(space, repeats, obj=objective_of(name, space, dt, samples))
     ratio = cost["ratio"]
     print(f"{name}: value+gradient / value = {ratio:.2f}", flush=True)
     obj = objective_of(name, space, dt, samples, throw=False)
@@ -431,9 +426,9 @@ def extend_cma(out, name: str, budget: float, start: float) -> dict:
     """Re-run each row's CMA-ES seeds of ``out/name.json`` with ``budget`` simulations,
     replacing their runs, and re-analyse (targets and speed-ups)."""
     results = json.loads((out / f"{name}.json").read_text())
-    spaces = gradient_cost.spaces()
+    spaces = designs.spaces()
     for row in results["rows"]:
-        space = space_of(row["space"], spaces)
+        space = designs.space_of(row["space"], spaces)
         obj = objective_of(row["space"], space, *saved_steps(results["settings"]), throw=False)
         u0 = jnp.zeros(space.size)
         for i, r in enumerate(row["runs"]):
@@ -466,9 +461,9 @@ def perturbed_adam(out, name: str, sigma: float, start: float, seed: int = 0) ->
     gradient at the uniform start equal for gaps k, k + 3, …, and Adam from there keeps
     that symmetry; from a perturbed start it searches every direction. Re-analyses."""
     results = json.loads((out / f"{name}.json").read_text())
-    spaces = gradient_cost.spaces()
+    spaces = designs.spaces()
     for row in results["rows"]:
-        space = space_of(row["space"], spaces)
+        space = designs.space_of(row["space"], spaces)
         obj = objective_of(row["space"], space, *saved_steps(results["settings"]), throw=False)
         u0 = sigma * np.random.default_rng(seed).normal(size=space.size)
         run, _, _ = adam(obj, jnp.asarray(u0), row["ratio"], row["budget"], method=PERTURBED)
@@ -503,7 +498,7 @@ def main(argv=None) -> dict:
     ap.add_argument(
         "--dt",
         type=float,
-        default=gradient_cost.DT,
+        default=designs.DT,
         help="fixed step of the objective's solves [s] (default %(default)s)",
     )
     ap.add_argument(
@@ -528,9 +523,11 @@ def main(argv=None) -> dict:
     start = time.perf_counter()
     if args.probes_only:
         results = json.loads((args.out / f"{args.name}.json").read_text())
-        spaces = gradient_cost.spaces()
+        spaces = designs.spaces()
         for row in results["rows"]:
-            add_probes(row, space_of(row["space"], spaces), *saved_steps(results["settings"]))
+            add_probes(
+                row, designs.space_of(row["space"], spaces), *saved_steps(results["settings"])
+            )
         results["probes_command"] = "python -m benchmarks.methods --probes-only"
         results["probes_date"] = datetime.date.today().isoformat()
         results["probes_s"] = time.perf_counter() - start
@@ -548,11 +545,11 @@ def main(argv=None) -> dict:
             raise SystemExit(f"--dimensions: choose from {','.join(p['budget'])}")
     if args.seeds is not None:
         p["seeds"] = tuple(range(1, args.seeds + 1))
-    spaces = gradient_cost.spaces()
+    spaces = designs.spaces()
     rows = [
         study(
             name,
-            space_of(name, spaces),
+            designs.space_of(name, spaces),
             p["budget"][name],
             p["seeds"],
             p["repeats"],
@@ -568,7 +565,7 @@ def main(argv=None) -> dict:
             f" {flag}"
             for flag, on in (
                 ("--quick", args.quick),
-                (f"--dt {args.dt:g}", args.dt != gradient_cost.DT),
+                (f"--dt {args.dt:g}", args.dt != designs.DT),
                 (f"--samples {args.samples}", args.samples != SAMPLES),
                 (f"--dimensions {args.dimensions}", args.dimensions),
                 (f"--seeds {args.seeds}", args.seeds is not None),

@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from benchmarks._cli import FRICTIONLESS, finish, parse, parser
+from benchmarks.common import FRICTIONLESS, finish, parse, parser
 
 ROOT = Path(__file__).resolve().parents[1]
 NAME = "multiprocess"
@@ -266,7 +266,7 @@ def main(argv=None):
         for r in results["configs"]
     )
     results["machine"]["uptime_end"] = uptime()
-    from benchmarks._cli import loadavg
+    from benchmarks.common import loadavg
 
     results["machine"]["loadavg"] = loadavg()
     return finish(results, args.out, NAME, chart, t_start)

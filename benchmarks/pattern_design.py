@@ -39,83 +39,16 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, header, parse, parser, save_chart
+from benchmarks.common import finish, header, parse, parser, save_chart
+from benchmarks.designs import (
+    add_model_options,
+    design_objectives,
+    model_options,
+    suffix,
+)
 
 # the robust objective's soft maximum over the two laws' relative values
 LAW_TEMPERATURE = 0.01
-
-
-def hertz_design_law(width: float | None = None):
-    """The second law (Hertz, ``optimize.problem.second_law``) as a design law: its contact
-    onset regularized over ``width`` [m] (default the Johnson design law's 3 µm)."""
-    import equinox as eqx
-
-    from benchmarks import gradient_cost as gc
-    from optimize.problem import second_law
-
-    width = gc.LAW.width if width is None else width
-    return eqx.tree_at(lambda law: law.width, second_law(gc.CHAIN), width)
-
-
-def design_objectives(
-    space,
-    width: float = 3e-6,
-    dt: float = 4e-6,
-    hertz_temperature: float = 20.0,
-    member_max: float | None = None,
-) -> dict:
-    """The every-gap objective over ``space`` under each design law ("johnson", "hertz"),
-    the contact onset regularized over ``width`` [m], fixed steps of ``dt`` [s]; the soft
-    peak's temperature 20 N (Johnson) and ``hertz_temperature`` [N]; the members
-    averaged, or with ``member_max`` [N] their soft maximum at that temperature."""
-    import jaxchain as jc
-    from benchmarks import gradient_cost as gc
-
-    laws = {
-        "johnson": jc.scenes.roller_law(gc.CHAIN, 0.7, width=width),
-        "hertz": hertz_design_law(width),
-    }
-    temperature = {"johnson": 20.0, "hertz": hertz_temperature}
-    return {
-        law: gc.every_gap_objective(
-            space,
-            dt=dt,
-            samples=8,
-            model={"roller_contact": c},
-            temperature=temperature[law],
-            combine="mean" if member_max is None else "max",
-            member_temperature=member_max,
-        )
-        for law, c in laws.items()
-    }
-
-
-def add_model_options(ap) -> None:
-    """The design model's options (onset, step, Hertz soft-peak temperature) on ``ap``."""
-    ap.add_argument("--width", type=float, default=3.0, help="onset [µm] (default %(default)s)")
-    ap.add_argument("--dt", type=float, default=4.0, help="fixed step [µs] (default %(default)s)")
-    ap.add_argument(
-        "--hertz-temperature", type=float, default=20.0,
-        help="the Hertz design objective's soft-peak temperature [N] (default %(default)s)",
-    )  # fmt: skip
-
-
-def model_options(args) -> dict:
-    """:func:`design_objectives`'s keywords from :func:`add_model_options`' options."""
-    return {
-        "width": 1e-6 * args.width, "dt": 1e-6 * args.dt,
-        "hertz_temperature": args.hertz_temperature,
-    }  # fmt: skip
-
-
-def suffix(args) -> str:
-    """A result file's name suffix naming each design-model or Adam option that differs
-    from its default."""
-    out = f"_w{args.width:g}_dt{args.dt:g}" if (args.width, args.dt) != (3.0, 4.0) else ""
-    out += f"_tH{args.hertz_temperature:g}" if args.hertz_temperature != 20.0 else ""
-    member, lr = getattr(args, "member_max", None), getattr(args, "lr", None)
-    out += f"_max{member:g}" if member is not None else ""
-    return out + (f"_lr{lr:g}" if lr is not None else "")
 
 
 def plain_objective(space, **model):
@@ -200,9 +133,8 @@ def main(argv=None) -> dict:
     import jax.numpy as jnp
     import optax
 
-    from benchmarks import gradient_cost as gc
-    from benchmarks.methods import LEARNING_RATE
-    from benchmarks.pattern_remeasure import laws, measure
+    from benchmarks import designs as gc
+    from benchmarks.designs import LEARNING_RATE, laws, remeasure as measure
 
     start = time.perf_counter()
     steps = 2 if args.quick else args.steps

@@ -23,13 +23,12 @@ worst gap's engagement.
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, header, parse, parser, save_chart, shown
+from benchmarks.common import finish, header, parse, parser, save_chart, shown
 
 RESULT = Path(__file__).parent / "results" / "methods_every_gap.json"
 
@@ -37,14 +36,6 @@ RESULT = Path(__file__).parent / "results" / "methods_every_gap.json"
 def run_name(run: dict) -> str:
     """A methods run's name: its method, and its seed where it has one."""
     return run["method"] + (f" seed {run['seed']}" if run.get("seed") is not None else "")
-
-
-def laws() -> dict:
-    """The re-measurement's roller laws: the nominal (Johnson, None) and the second law."""
-    from benchmarks import gradient_cost as gc
-    from optimize.problem import second_law
-
-    return {"johnson": None, "hertz": second_law(gc.CHAIN)}
 
 
 def designs(result: dict, size: int, quick: bool) -> dict[str, np.ndarray | None]:
@@ -61,30 +52,6 @@ def designs(result: dict, size: int, quick: bool) -> dict[str, np.ndarray | None
     return out
 
 
-def measure(profile, law, rtol: float) -> dict:
-    """The six turned members of ``profile`` with the nominal model (``law``: None for
-    the nominal Johnson law) solved tightly; each member's sharp peak over periods 2–4."""
-    import diffrax
-
-    import jaxchain as jc
-    from benchmarks import gradient_cost as gc
-
-    scenes = gc.build_turned(profile, roller_contact=law, joint_friction=jc.scenes.JOINT_FRICTION)
-    t0, t1 = gc.PERIOD, gc.EVERY_GAP_PERIODS * gc.PERIOD
-    ts = np.linspace(t0, t1, math.ceil((t1 - t0) / 0.5e-6) + 1)
-    peaks, steps, ok = [], [], []
-    for scene in scenes:
-        sol = jc.simulate(
-            scene, t1, solver=diffrax.Dopri8(), rtol=rtol, atol=rtol * 1e-3, ts=ts,
-            max_steps=1_000_000, throw=False,
-        )  # fmt: skip
-        ok.append(bool(sol.ok))
-        peaks.append(float(np.max(np.asarray(sol.roller_sprocket_force))) if sol.ok else math.nan)
-        steps.append(int(sol.stats["num_accepted_steps"]))
-    # a failed member makes the worst NaN (never the largest of the others)
-    return {"peak_N": float(np.max(peaks)), "members_N": peaks, "steps": steps, "ok": all(ok)}
-
-
 def main(argv=None) -> dict:
     ap = parser(__doc__, quick_help="the start and Adam's design, rtol 1e-7")
     ap.add_argument("--result", type=Path, default=RESULT, help="a methods result file")
@@ -94,8 +61,8 @@ def main(argv=None) -> dict:
 
     jax.config.update("jax_enable_x64", True)
     import jaxchain as jc
-    from benchmarks import gradient_cost as gc
-    from benchmarks.methods import space_of
+    from benchmarks import designs as gc
+    from benchmarks.designs import laws, remeasure as measure, space_of
 
     result = json.loads(args.result.read_text())
     row = result["rows"][0]

@@ -44,11 +44,19 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, header, parse, parser, single_thread_env
+from benchmarks.common import (
+    DRIVE_CHAIN,
+    DRIVE_Z,
+    DRIVE_Z_DRIVEN,
+    finish,
+    header,
+    parse,
+    parser,
+    quiet_drive_scene,
+    single_thread_env,
+)
 
-CHAIN = "08B"
-Z, Z_DRIVEN, N_LINKS = 18, 36, 60
-LOAD, PRETENSION = 40.0, 300.0
+CHAIN, Z, Z_DRIVEN = DRIVE_CHAIN, DRIVE_Z, DRIVE_Z_DRIVEN
 ORDERS = np.arange(0.0, 73.0)
 BAND = (9.0, 63.0)  # 0.5–3.5 mesh orders
 SIGNALS = (("bearing", 1), ("torque", 1))
@@ -89,24 +97,6 @@ def profile(design: str):
     return jc.FreeformProfile.from_iso(iso["min"], 2, tip_diameter=tip, **changes)
 
 
-def drive_scene(driver, rpm: float, **model):
-    """The study's settled drive with ``driver`` as the z = 18 driver's profile at ``rpm``
-    (``model``: ``jc.scenes.drive``'s ``roller_contact``, ``joint_friction``, ...)."""
-    import jaxchain as jc
-
-    chain = jc.ChainSpec.iso606(CHAIN)
-    return jc.scenes.drive(
-        chain,
-        teeth=(Z, Z_DRIVEN),
-        n_links=N_LINKS,
-        speed_rpm=rpm,
-        load_torque=LOAD,
-        pretension=PRETENSION,
-        profiles=[driver, jc.ToothProfile.iso606(chain, Z_DRIVEN, "min")],
-        **model,
-    )
-
-
 def solve(design: str, rpm: float, revs: float) -> dict:
     """One solve of the drive with ``design`` at ``rpm`` over ``revs`` driver revolutions:
     the signals' order lines, the peak force, the solver's statistics and its wall time."""
@@ -117,7 +107,7 @@ def solve(design: str, rpm: float, revs: float) -> dict:
     from jaxchain.observers import OrderSpectrum
 
     t = time.perf_counter()
-    scene = drive_scene(profile(design), rpm)
+    scene = quiet_drive_scene(profile(design), rpm)
     build_s = time.perf_counter() - t
     observers = tuple(
         OrderSpectrum(ORDERS, 0.25, revs - 0.05, signal=s, sprocket=k, reference=0)

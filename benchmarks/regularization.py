@@ -81,11 +81,15 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import FRICTIONLESS, loadavg, machine_info, parse, parser  # noqa: E402
-from benchmarks.work_precision import (  # noqa: E402
-    reference,
-    tooth_period,
+from benchmarks.common import (  # noqa: E402
+    FRICTIONLESS,
+    loadavg,
+    machine_info,
+    parse,
+    parser,
+    tooth_period,  # noqa: E402
 )
+from benchmarks.precision import reference  # noqa: E402
 
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)

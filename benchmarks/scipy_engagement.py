@@ -55,23 +55,23 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import (  # noqa: E402
+from benchmarks.common import (  # noqa: E402  # noqa: E402
     finish,
     machine_info,  # noqa: E402
+    more_repeats,
     parse,
     parser,
+    timed,
+    tooth_period,
 )
-from benchmarks.work_precision import (  # noqa: E402
+from benchmarks.precision import (  # noqa: E402
     ATOL_PER_RTOL,
     SOLVERS,
     STYLE,
     best_table,
     engagement_scene,
-    more_repeats,
     reference,
     sweep,
-    timed,
-    tooth_period,
 )
 from jaxchain.contact import JohnsonCylinder  # noqa: E402
 from jaxchain.observers import PeakRecord, parabola_max  # noqa: E402

@@ -44,7 +44,7 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from benchmarks._cli import finish, header, parse, parser, shown  # noqa: E402
+from benchmarks.common import finish, header, parse, parser, shown  # noqa: E402
 from optimize.problem import Settings, make_problem  # noqa: E402
 
 RUN = Path(__file__).parent / "results" / "optimize_default" / "results.json"

@@ -37,7 +37,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks._cli import (  # noqa: E402
+from benchmarks.common import (  # noqa: E402
     finish,
     machine_info,  # noqa: E402
     parse,

@@ -72,7 +72,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks._cli import finish, parse, parser, single_thread_env
+from benchmarks.common import finish, parse, parser, single_thread_env
 
 DESIGNS = ("iso_min", "optimized")
 DELTAS_UM = (5.0, 10.0, 20.0)
@@ -402,7 +402,7 @@ def _numbers(text: str, option: str) -> tuple[float, ...]:
 
 
 def main(argv=None) -> dict:
-    from benchmarks._cli import machine_info
+    from benchmarks.common import machine_info
     from optimize.run import write_atomic
 
     ap = parser(__doc__, "one δ (20 µm), 2 samples, the worst operating point")

@@ -15,7 +15,6 @@ from . import (
     observers as observers,
     scenes as scenes,
 )
-from ._adjoint import StepResidualsAdjoint as StepResidualsAdjoint
 from ._chain import ChainSpec as ChainSpec
 from ._dynamics import (
     DriveState as DriveState,
@@ -24,7 +23,8 @@ from ._dynamics import (
     roller_kinematics as roller_kinematics,
     vector_field as vector_field,
 )
-from ._engagements import (
+from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
+from ._observers.engagements import (
     Engagements as Engagements,
     PeakComparison as PeakComparison,
     PeakStatistics as PeakStatistics,
@@ -32,20 +32,14 @@ from ._engagements import (
     engagement_peaks as engagement_peaks,
     peak_statistics as peak_statistics,
 )
-from ._ensemble import (
-    EnsembleSolution as EnsembleSolution,
-    simulate_ensemble as simulate_ensemble,
-)
-from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
-from ._options import DEFAULT_DT0 as DEFAULT_DT0, SolveOptions as SolveOptions
-from ._plot import plot_profiles as plot_profiles, plot_sprocket as plot_sprocket
-from ._plot_drive import (
+from ._plots.drive import (
     animate as animate,
     plot_forces as plot_forces,
     plot_snapshot as plot_snapshot,
     plot_speed as plot_speed,
     plot_tensions as plot_tensions,
 )
+from ._plots.profiles import plot_profiles as plot_profiles, plot_sprocket as plot_sprocket
 from ._profiles.base import AbstractProfile as AbstractProfile, AbstractShape as AbstractShape
 from ._profiles.contact import (
     gap_contact as gap_contact,
@@ -59,12 +53,6 @@ from ._profiles.iso import (
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,
 )
-from ._result import (
-    Result as Result,
-    SolveError as SolveError,
-    result_messages as result_messages,
-    result_names as result_names,
-)
 from ._scene import (
     Anchors as Anchors,
     ClearanceJoints as ClearanceJoints,
@@ -73,6 +61,18 @@ from ._scene import (
     Scene as Scene,
     Sprocket as Sprocket,
 )
-from ._simulate import Solution as Solution, simulate as simulate
+from ._solve.adjoint import StepResidualsAdjoint as StepResidualsAdjoint
+from ._solve.ensemble import (
+    EnsembleSolution as EnsembleSolution,
+    simulate_ensemble as simulate_ensemble,
+)
+from ._solve.options import DEFAULT_DT0 as DEFAULT_DT0, SolveOptions as SolveOptions
+from ._solve.result import (
+    Result as Result,
+    SolveError as SolveError,
+    result_messages as result_messages,
+    result_names as result_names,
+)
+from ._solve.simulate import Solution as Solution, simulate as simulate
 
 __version__ = "0.1.0"

@@ -10,9 +10,7 @@ objective = jc.design.ProfileObjective(space, build, t1=..., objective=band, com
 value, grad, members = objective.value_and_grad(u)
 """
 
-from ._design import (
-    PARAMETERS as PARAMETERS,
-    DesignSpace as DesignSpace,
+from ._design.objective import (
     Observed as Observed,
     PeakForce as PeakForce,
     Penalized as Penalized,
@@ -21,3 +19,4 @@ from ._design import (
     soft_peak_force as soft_peak_force,
     window_weight as window_weight,
 )
+from ._design.space import PARAMETERS as PARAMETERS, DesignSpace as DesignSpace

@@ -13,7 +13,7 @@ share; values, gradients and per-member result codes come back complete on every
 script.py``; on a cluster, one process per task (``srun``).
 """
 
-from ._distributed import (
+from ._solve.distributed import (
     LocalMembers as LocalMembers,
     Split as Split,
     gather as gather,

@@ -29,7 +29,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ._distributed import (
+from ._solve.distributed import (
     ENV_COORDINATOR,
     ENV_HEARTBEAT,
     ENV_PROCESS_ID,

@@ -20,12 +20,8 @@ it); the design objectives a :class:`SoftPeak` or the observer they are given. N
 objectives computed inside the solve subclass one of the two abstract classes.
 """
 
-from ._engagements import (
-    EngagementPeaks as EngagementPeaks,
-    EngagementRecord as EngagementRecord,
-)
 from ._numerics import parabola_max as parabola_max
-from ._observers import (
+from ._observers.base import (
     EXP_CAP as EXP_CAP,
     AbstractIntegralObserver as AbstractIntegralObserver,
     AbstractObserver as AbstractObserver,
@@ -36,7 +32,11 @@ from ._observers import (
     SoftPeak as SoftPeak,
     window_weight as window_weight,
 )
-from ._orders import (
+from ._observers.engagements import (
+    EngagementPeaks as EngagementPeaks,
+    EngagementRecord as EngagementRecord,
+)
+from ._observers.orders import (
     SIGNALS as SIGNALS,
     BandLevel as BandLevel,
     OrderSpectrum as OrderSpectrum,

@@ -34,4 +34,4 @@ from ._scenes.statics import (
     resettle as resettle,
     statics_jacobian as statics_jacobian,
 )
-from ._stack import stack as stack
+from ._solve.stack import stack as stack

@@ -102,7 +102,7 @@ excluded). Down and to the left is better. The dotted line is how far the refere
 itself moves between its two tolerances."""
     ),
     new_code_cell(
-        """from benchmarks.work_precision import STYLE  # one colour and marker per solver
+        """from benchmarks.precision import STYLE  # one colour and marker per solver
 
 
 def error_time_axes(ax, rows, err, *, label_key="solver", style=STYLE):

@@ -48,7 +48,7 @@ def count_calls(monkeypatch, module, name):
 def count_vector_field_calls(monkeypatch):
     """A list that grows by one each time the one solve (``simulate``, ensembles, design
     objectives) traces (calls) the drive's forces in its vector field."""
-    import jaxchain._solve as S
+    import jaxchain._solve.solve as S
 
     return count_calls(monkeypatch, S, "forces")
 

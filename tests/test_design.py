@@ -142,7 +142,7 @@ def test_sampled_soft_peak_resolves_a_spike_shorter_than_the_step(monkeypatch):
     ~2·exp(−2π²σ²/h²) is 1e-9 at h = 0.5 µs); on the step ends alone (samples=1) the
     value swings with the pulse's position by several τ — the ripple in the design
     parameters that the stage-integrated :class:`SoftPeak` shows at such a step."""
-    import jaxchain._observers as observers
+    import jaxchain._observers.base as observers
 
     monkeypatch.setattr(observers, "_roller_forces", lambda y, scene: y)  # states = forces
     a, s, tau, h, w = 1500.0, 5e-6, 16.0, 4e-6, 200e-6

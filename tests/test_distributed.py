@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from jaxchain._distributed import Split
+from jaxchain._solve.distributed import Split
 from jaxchain.launch import launch
 
 ROOT = Path(__file__).resolve().parents[1]

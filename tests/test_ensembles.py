@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 import jaxchain as jc
-from jaxchain._ensemble import _group_cost, _padded, _plan
+from jaxchain._solve.ensemble import _group_cost, _padded, _plan
 
 from helpers import count_vector_field_calls, fixed_step_joints
 
@@ -139,7 +139,7 @@ def failures_are_per_member(scenes, one_batch):
 
 
 def second_call_does_not_retrace(scenes, one_batch, monkeypatch):
-    import jaxchain._ensemble as E
+    import jaxchain._solve.ensemble as E
 
     calls = count_vector_field_calls(monkeypatch)
     cache = E._solve_batch._cached._cache_size()

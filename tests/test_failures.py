@@ -351,7 +351,7 @@ def test_the_classification_orders_causes_first():
     """A solve past its horizon or in float32 is reported as that cause whatever followed
     from it; a diverged solve is ``diverged`` even when its tensions also broke the chain
     (the flags each come from the solve's health observer or its configuration)."""
-    from jaxchain._result import classify
+    from jaxchain._solve.result import classify
 
     ok, bad = diffrax.RESULTS.successful, diffrax.RESULTS.max_steps_reached
     t, f = jnp.asarray(True), jnp.asarray(False)

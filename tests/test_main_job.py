@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxchain as jc
-from jaxchain._design import ProfileObjective
+from jaxchain._design.objective import ProfileObjective
 from optimize.__main__ import main, parse
 
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import jaxchain as jc
-from jaxchain._options import with_options
-from jaxchain._result import RESULT_NAMES
+from jaxchain._solve.options import with_options
+from jaxchain._solve.result import RESULT_NAMES
 
 
 def test_every_result_has_a_name_and_a_message_with_a_fix():

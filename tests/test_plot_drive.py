@@ -14,7 +14,7 @@ import pytest  # noqa: E402
 from PIL import Image  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from jaxchain._plot_drive import (  # noqa: E402
+from jaxchain._plots.drive import (  # noqa: E402
     animate,
     plot_forces,
     plot_snapshot,

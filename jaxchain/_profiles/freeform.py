@@ -33,7 +33,9 @@ chain's) is the uniform ``seat_offset = (p' − p) / (2 sin(π/z))``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import equinox as eqx
@@ -45,6 +47,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._numerics import is_concrete
 from .base import AbstractProfile, check_teeth
 from .freeform_shape import Flank, FreeShape, HalfGap, gap_table, half_gap, split_between
+from .pitch_polygon import pitch_polygon
 
 __all__ = ["Flank", "FreeformProfile", "stack_shapes"]
 
@@ -145,6 +148,52 @@ class FreeformProfile(AbstractProfile):
         )
         kw.update(changes)
         return cls(**kw)
+
+    @classmethod
+    def noncircular(
+        cls, base: AbstractProfile, harmonics: Sequence[Sequence[ArrayLike]] = ()
+    ) -> FreeformProfile:
+        """A non-circular sprocket: ``base``'s tooth form (any kind with a free-form form;
+        its seat offsets and phases replaced) about seats on a closed polygon of z chords,
+        each exactly one chain pitch, whose corners lie on the pitch curve
+
+            r(θ) = R₀ + Σ Aᵢ·sin(nᵢ·θ + φᵢ),   ``harmonics`` = ((nᵢ, Aᵢ [m], φᵢ [rad]), ...)
+
+        (nᵢ whole cycles per revolution, ≥ 1), seat 0 at θ = 0 and R₀ solved with the
+        seats' angles (Newton, to round-off; see :func:`.pitch_polygon.pitch_polygon`).
+        Each gap keeps its form about its own seat, its axis on the seat's ray. The
+        amplitudes and phases may be traced: the seats are differentiable in them
+        (implicit function theorem). The tip circle stays the base's.
+
+        Raises ``ValueError`` (concrete harmonics) for orders that are not whole numbers
+        ≥ 1, or harmonics so large that no such polygon is found."""
+        base = base.freeform()
+        rows = [tuple(h) for h in harmonics]
+        for k, h in enumerate(rows):
+            if len(h) != 3:
+                raise ValueError(
+                    f"noncircular: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
+                )
+        orders = np.asarray([float(h[0]) for h in rows], dtype=float)
+        if np.any((orders < 1) | (orders != np.round(orders))):
+            raise ValueError(
+                f"noncircular: every order must be a whole number >= 1 (cycles per "
+                f"revolution of a closed pitch curve), got {orders.tolist()}"
+            )
+        dtype = jnp.result_type(base.pitch)
+        amplitudes = jnp.stack([jnp.asarray(h[1], dtype) for h in rows]) if rows else jnp.zeros(0)
+        phases = jnp.stack([jnp.asarray(h[2], dtype) for h in rows]) if rows else jnp.zeros(0)
+        z = base.teeth
+        theta, radius, _, err = pitch_polygon(z, base.pitch, orders, amplitudes, phases)
+        if is_concrete(err) and not float(err) <= 1e-9 * float(base.pitch):
+            raise ValueError(
+                f"noncircular: no closed polygon of {z} equal chords found on this pitch "
+                f"curve (chord error {float(err):.3g} m); use smaller amplitudes"
+            )
+        offset = radius - base.pitch / (2 * jnp.sin(jnp.pi / z))
+        phase = theta - 2 * jnp.pi * jnp.arange(z) / z
+        kw = {f.name: getattr(base, f.name) for f in dataclasses.fields(base)}
+        return cls(**(kw | {"seat_offset": offset, "phase": phase}))  # validated per gap
 
     # ------------------------------------------------------------------ derived
     @property

@@ -10,12 +10,12 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
-from ._numerics import is_concrete
-from ._observers import AbstractIntegralObserver, AbstractStepObserver, PeakRecord
-from ._options import SolveOptions, with_options
-from ._result import Result, raise_if_failed, result_messages, result_names
-from ._scene import Scene
-from ._solve import check_horizon, solve, strong_scene
+from .._numerics import is_concrete
+from .._observers.base import AbstractIntegralObserver, AbstractStepObserver, PeakRecord
+from .._scene import Scene
+from .options import SolveOptions, with_options
+from .result import Result, raise_if_failed, result_messages, result_names
+from .solve import check_horizon, solve, strong_scene
 
 __all__ = ["simulate", "Solution", "time_span"]
 

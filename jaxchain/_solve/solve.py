@@ -2,8 +2,8 @@
 
 ``simulate``, ``simulate_ensemble`` and every design objective run :func:`solve`; they
 differ only in the observers they plug in and what they save. The solve also carries the
-:class:`~jaxchain._observers.Health` observer, and classifies every outcome with the one
-:func:`~jaxchain._result.classify`.
+:class:`~jaxchain._observers.base.Health` observer, and classifies every outcome with the one
+:func:`~jaxchain._solve.result.classify`.
 """
 
 from __future__ import annotations
@@ -19,13 +19,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
-from ._dynamics import DriveState, forces, initial_state, outputs, rates
-from ._elements.rollers import prepare
-from ._numerics import is_concrete
-from ._observers import AbstractIntegralObserver, AbstractStepObserver, Health
-from ._options import Resolved
-from ._result import Result, classify
-from ._scene import Scene
+from .._dynamics import DriveState, forces, initial_state, outputs, rates
+from .._elements.rollers import prepare
+from .._numerics import is_concrete
+from .._observers.base import AbstractIntegralObserver, AbstractStepObserver, Health
+from .._scene import Scene
+from .options import Resolved
+from .result import Result, classify
 
 __all__ = ["solve", "Trajectory", "strong_scene", "check_horizon"]
 

@@ -46,13 +46,13 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 from scipy import stats as _stats
 
-from . import _checks as checks
-from ._dynamics import roller_contacts, roller_kinematics
-from ._numerics import is_concrete, parabola_max
-from ._observers import AbstractStepObserver
-from ._result import Result
-from ._scene import Scene
-from ._simulate import Solution
+from .. import _checks as checks
+from .._dynamics import roller_contacts, roller_kinematics
+from .._numerics import is_concrete, parabola_max
+from .._scene import Scene
+from .._solve.result import Result
+from .._solve.simulate import Solution
+from .base import AbstractStepObserver
 
 __all__ = [
     "EngagementPeaks",
@@ -129,7 +129,7 @@ class EngagementPeaks(AbstractStepObserver):
     sprocket; its peak is the largest force in the window. A seated roller rattling in
     the wrap starts no new event: one per roller and sprocket per pass. Half a period
     holds the meshing impact and its rebounds, not the next roller's impact one period
-    later, which loads the seated roller too (measurements: ``jaxchain._engagements``).
+    later, which loads the seated roller too (measurements: ``jaxchain._observers.engagements``).
 
     Each accepted step is read as :class:`~jaxchain.observers.PeakRecord` reads it: the
     force of every pair at the step's start, at ``samples − 1`` equally spaced interior

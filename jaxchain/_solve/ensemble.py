@@ -28,15 +28,16 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 from jaxtyping import Array, ArrayLike
 
-from . import _checks as checks, _distributed as dist
-from ._distributed import LocalMembers
-from ._observers import PeakRecord
-from ._options import Resolved, SolveOptions, with_options
-from ._result import raise_if_failed
-from ._scene import Scene
-from ._simulate import Solution, peak_of, split_saved, time_span
-from ._solve import check_horizon, solve, strong_scene
-from ._stack import stack, take as _take
+from .. import _checks as checks
+from .._observers.base import PeakRecord
+from .._scene import Scene
+from . import distributed as dist
+from .distributed import LocalMembers
+from .options import Resolved, SolveOptions, with_options
+from .result import raise_if_failed
+from .simulate import Solution, peak_of, split_saved, time_span
+from .solve import check_horizon, solve, strong_scene
+from .stack import stack, take as _take
 
 __all__ = ["stack", "simulate_ensemble", "EnsembleSolution"]
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._scene import Scene
-from ._simulate import Solution
+from .._scene import Scene
+from .._solve.simulate import Solution
 
 __all__ = ["plot_forces", "plot_tensions", "plot_snapshot", "animate", "plot_speed"]
 

@@ -14,8 +14,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike
 
-from ._adjoint import StepResidualsAdjoint
-from ._numerics import is_concrete
+from .._numerics import is_concrete
+from .adjoint import StepResidualsAdjoint
 
 __all__ = ["SolveOptions", "Resolved", "with_options"]
 

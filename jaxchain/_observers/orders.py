@@ -27,11 +27,11 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from . import _checks as checks
-from ._dynamics import DriveState, Forces
-from ._numerics import is_concrete
-from ._observers import AbstractIntegralObserver
-from ._scene import Scene
+from .. import _checks as checks
+from .._dynamics import DriveState, Forces
+from .._numerics import is_concrete
+from .._scene import Scene
+from .base import AbstractIntegralObserver
 
 __all__ = [
     "SIGNALS",

@@ -1,6 +1,6 @@
 """Observers: quantities computed along the one solve, carried by it.
 
-Two kinds plug into the solve (see ``jaxchain._solve``):
+Two kinds plug into the solve (see ``jaxchain._solve.solve``):
 
 * a **step observer** sees every accepted step (its start and end states and the solver's
   dense interpolant over it) and keeps a running state in the solver state — the peak
@@ -23,8 +23,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from . import _checks as checks
-from ._dynamics import (
+from .. import _checks as checks
+from .._dynamics import (
     DriveState,
     Forces,
     contact_slots_ok,
@@ -32,9 +32,9 @@ from ._dynamics import (
     roller_contacts,
     roller_kinematics,
 )
-from ._numerics import is_concrete, parabola_max
-from ._result import FLYING_APART
-from ._scene import Scene
+from .._numerics import is_concrete, parabola_max
+from .._scene import Scene
+from .._solve.result import FLYING_APART
 
 __all__ = [
     "AbstractObserver",

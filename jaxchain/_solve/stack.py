@@ -11,7 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._scene import Scene
+from .._scene import Scene
 
 __all__ = ["stack", "take"]
 

@@ -24,8 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from ._scene import Scene
-from ._stack import stack, take
+from .._scene import Scene
+from .stack import stack, take
 
 __all__ = [
     "initialize",

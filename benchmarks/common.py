@@ -1,5 +1,6 @@
 """What every study shares: the command line (``--quick``, a short run, and ``--out``), the
-machine it ran on, and the result file's header."""
+machine it ran on, the result file's header and chart, timing on a shared machine, and
+the standard operating point's tooth period."""
 
 from __future__ import annotations
 
@@ -131,3 +132,88 @@ def single_thread_env() -> None:
     ).strip()
     os.environ["OMP_NUM_THREADS"] = "1"
     os.environ.setdefault("EQX_ON_ERROR", "nan")
+
+
+RPM = 1000.0  # the standard operating point's driver speed
+
+
+def tooth_period(teeth: int, rpm: float = RPM) -> float:
+    """One tooth period [s] of a ``teeth``-tooth sprocket at ``rpm``."""
+    return 60.0 / rpm / teeth
+
+
+MAX_REPEATS = 15  # timing runs at most (see more_repeats)
+
+
+def more_repeats(walls, at_least: int, min_time_s: float, max_repeats: int = MAX_REPEATS) -> bool:
+    """Whether a timing needs another run: fewer than ``at_least`` so far, or less than
+    ``min_time_s`` timed in fewer than ``max_repeats`` runs — a short run's minimum needs
+    more samples to get past the bursts of a shared machine. (One rule for every side of
+    a comparison: :func:`timed` and the SciPy study's loop.)"""
+    return len(walls) < at_least or (sum(walls) < min_time_s and len(walls) < max_repeats)
+
+
+def timed(call, repeats: int, *, min_time_s: float = 0.0, max_repeats: int = MAX_REPEATS):
+    """(result of the last call, first-call time, min and all warm times): ``repeats``
+    warm calls, more (up to ``max_repeats``) until they add up to ``min_time_s`` (see
+    :func:`more_repeats`)."""
+    import jax
+
+    t = time.perf_counter()
+    out = call()
+    jax.block_until_ready(out["peak"])
+    first = time.perf_counter() - t
+    walls = []
+    while more_repeats(walls, repeats, min_time_s, max_repeats):
+        t = time.perf_counter()
+        out = call()
+        jax.block_until_ready(out["peak"])
+        walls.append(time.perf_counter() - t)
+    return out, first, min(walls), walls
+
+
+def vf_time(scene, n=2000) -> float:
+    """µs per vector-field call inside a jitted loop."""
+    import jax
+
+    import jaxchain as jc
+
+    y0 = jc.initial_state(scene)
+
+    @jax.jit
+    def run(y, sc):
+        def body(i, y):
+            d = jc.vector_field(i * 1e-9, y, sc)
+            return jax.tree_util.tree_map(lambda a, b: a + 1e-15 * b, y, d)
+
+        return jax.lax.fori_loop(0, n, body, y)
+
+    jax.block_until_ready(run(y0, scene))
+    t = time.perf_counter()
+    jax.block_until_ready(run(y0, scene))
+    return (time.perf_counter() - t) / n * 1e6
+
+
+# ------------------------------------------------------------------------ standard scenes
+# the closed drive of the quiet_drive and drive_gradient studies
+DRIVE_CHAIN = "08B"
+DRIVE_Z, DRIVE_Z_DRIVEN, DRIVE_N_LINKS = 18, 36, 60
+DRIVE_LOAD, DRIVE_PRETENSION = 40.0, 300.0
+
+
+def quiet_drive_scene(driver, rpm: float, **model):
+    """The study's settled drive with ``driver`` as the z = 18 driver's profile at ``rpm``
+    (``model``: ``jc.scenes.drive``'s ``roller_contact``, ``joint_friction``, ...)."""
+    import jaxchain as jc
+
+    chain = jc.ChainSpec.iso606(DRIVE_CHAIN)
+    return jc.scenes.drive(
+        chain,
+        teeth=(DRIVE_Z, DRIVE_Z_DRIVEN),
+        n_links=DRIVE_N_LINKS,
+        speed_rpm=rpm,
+        load_torque=DRIVE_LOAD,
+        pretension=DRIVE_PRETENSION,
+        profiles=[driver, jc.ToothProfile.iso606(chain, DRIVE_Z_DRIVEN, "min")],
+        **model,
+    )

@@ -9,11 +9,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import _checks as checks
-from ._chain import ChainSpec, as_chain
-from ._profiles.contact import signed_distance
-from ._profiles.freeform import FreeformProfile
-from ._profiles.iso import ToothProfile
+from .. import _checks as checks
+from .._chain import ChainSpec, as_chain
+from .._profiles.contact import signed_distance
+from .._profiles.freeform import FreeformProfile
+from .._profiles.iso import ToothProfile
 
 __all__ = ["plot_profiles", "plot_sprocket"]
 

@@ -1,0 +1,1 @@
+"""Tooth-profile design: the design space and the objectives."""

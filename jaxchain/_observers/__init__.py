@@ -1,0 +1,2 @@
+"""Observers: quantities computed along the one solve (peaks, soft peaks, order spectra,
+engagements)."""

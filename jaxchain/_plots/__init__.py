@@ -1,0 +1,1 @@
+"""Plots of profiles and of drives (matplotlib)."""

@@ -1,0 +1,1 @@
+"""Solving: options, the one solve loop, simulate, ensembles, processes, result codes."""
