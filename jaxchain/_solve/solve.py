@@ -8,12 +8,14 @@ differ only in the observers they plug in and what they save. The solve also car
 
 from __future__ import annotations
 
+import contextlib
 import typing
 import warnings
 from typing import Any, NamedTuple
 
 import diffrax
 import equinox as eqx
+import equinox._errors as _eqx_errors  # the on-error mode read at trace time
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -163,21 +165,8 @@ def solve(
     if ts is not None:
         subs.insert(0, diffrax.SubSaveAt(ts=ts))
     args = _Args(scene, integrals)
-    sol = diffrax.diffeqsolve(
-        _terms(resolved.solver),
-        _Observed(resolved.solver, (Health(), *steps)),
-        t0,
-        t1,
-        resolved.dt0,
-        (y0, i0) if integrals else y0,
-        args=args,
-        saveat=diffrax.SaveAt(subs=subs, solver_state=True),
-        stepsize_controller=resolved.controller,
-        max_steps=resolved.max_steps,
-        adjoint=resolved.adjoint,
-        progress_meter=resolved.meter,
-        throw=False,
-    )
+    with _input_checks_without_callbacks():
+        sol = _diffeqsolve(resolved, steps, t0, t1, y0, i0, integrals, args, subs)
     *saved_states, final = sol.ys
     y1 = jax.tree_util.tree_map(lambda x: x[-1], _drive(final, args))
     i1 = jax.tree_util.tree_map(lambda x: x[-1], final[1]) if integrals else ()
@@ -205,6 +194,44 @@ def solve(
     stats["diffrax_result"] = sol.result
     stats["peak_link_tension"] = tension
     return Trajectory(saved, y1, observed, result, stats)
+
+
+def _diffeqsolve(resolved: Resolved, steps, t0, t1, y0, i0, integrals, args, subs):
+    return diffrax.diffeqsolve(
+        _terms(resolved.solver),
+        _Observed(resolved.solver, (Health(), *steps)),
+        t0,
+        t1,
+        resolved.dt0,
+        (y0, i0) if integrals else y0,
+        args=args,
+        saveat=diffrax.SaveAt(subs=subs, solver_state=True),
+        stepsize_controller=resolved.controller,
+        max_steps=resolved.max_steps,
+        adjoint=resolved.adjoint,
+        progress_meter=resolved.meter,
+        throw=False,
+    )
+
+
+@contextlib.contextmanager
+def _input_checks_without_callbacks():
+    """While the solve is traced, equinox's ``error_if`` answers a failed check with NaN
+    instead of a host callback.
+
+    diffrax checks its inputs (the sign of dt0, the save times' order and range) with
+    ``eqx.error_if``; with the times traced (one program for every horizon) each check is
+    a host callback, and JAX does not write a program with host callbacks to its
+    persistent compilation cache: every process would compile the solve again. jaxchain
+    checks the same inputs itself before tracing (:func:`~jaxchain._solve.simulate.time_span`,
+    :class:`~jaxchain.SolveOptions`); traced inputs that fail them give NaN, which the
+    solve's health reports."""
+    old = _eqx_errors.EQX_ON_ERROR
+    _eqx_errors.EQX_ON_ERROR = "nan"
+    try:
+        yield
+    finally:
+        _eqx_errors.EQX_ON_ERROR = old
 
 
 def _zeros_of(observer: AbstractIntegralObserver, t0, y0, scene):

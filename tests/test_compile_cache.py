@@ -1,0 +1,36 @@
+"""The solve is a program JAX's persistent compilation cache keeps: no host callback in
+it, whatever equinox's on-error mode (a program with one is never written to the cache,
+so every new process would compile the solve again)."""
+
+import equinox._errors as eqx_errors
+import jax
+
+import jaxchain as jc
+
+from helpers import tooth_period
+
+
+def _callbacks(jaxpr) -> list[str]:
+    """Names of the callback primitives anywhere in ``jaxpr`` (sub-jaxprs included)."""
+    found = []
+    for eqn in jaxpr.eqns:
+        if "callback" in eqn.primitive.name:
+            found.append(eqn.primitive.name)
+        for param in eqn.params.values():
+            for sub in param if isinstance(param, (list, tuple)) else (param,):
+                inner = getattr(sub, "jaxpr", sub)
+                inner = getattr(inner, "jaxpr", inner)
+                if hasattr(inner, "eqns"):
+                    found += _callbacks(inner)
+    return found
+
+
+def test_the_solve_has_no_host_callback(monkeypatch):
+    """With equinox raising on errors (its default), diffrax's checks of the traced times
+    would be host callbacks; the solve traces them without any."""
+    monkeypatch.setattr(eqx_errors, "EQX_ON_ERROR", "raise")
+    scene = jc.scenes.engagement("08B", 18, n_entry=2, settle=False)
+    t1 = tooth_period(1000, 18)
+    traced = jax.make_jaxpr(lambda s: jc.simulate(s, t1, throw=False).peak_contact_force)(scene)
+    assert _callbacks(traced.jaxpr) == []
+    assert eqx_errors.EQX_ON_ERROR == "raise"  # restored after the solve's trace
