@@ -76,7 +76,7 @@ def test_forces_are_the_sum_of_the_elements(free_drive):
     y = initial_state(free_drive)
     names = [type(e).__name__ for e in free_drive.force_elements]
     assert names[0] == "PairGroup" and "RollerTeeth" in names and names[-1] == "Gravity"
-    eff = effects(0.0, y, free_drive)
+    eff = jax.jit(effects)(0.0, y, free_drive)  # one program, not op by op
     total = sum(e.body for e in eff)
     # (a settled drive: the forces cancel to roundoff of its 300 N tensions)
     np.testing.assert_allclose(forces(0.0, y, free_drive).body, total, rtol=1e-10, atol=1e-7)
@@ -86,11 +86,12 @@ def test_forces_are_the_sum_of_the_elements(free_drive):
     v = jnp.asarray(np.random.default_rng(0).normal(scale=0.1, size=y.v.shape))
     yv = y._replace(v=v)
     added = forces(0.0, yv, with_tether).body - forces(0.0, yv, free_drive).body
-    np.testing.assert_allclose(added, tether.effect(0.0, yv, with_tether, None).body, atol=1e-9)
+    own = jax.jit(lambda y, s: tether.effect(0.0, y, s, None).body)(yv, with_tether)
+    np.testing.assert_allclose(added, own, atol=1e-9)
     assert float(jnp.abs(added[3, :2]).max()) > 10.0  # N: it does act
     # its damper takes power out
     damper = _tether(free_drive, 0.0, 50.0)
-    assert float(damper.power(0.0, yv, with_tether)) < 0.0
+    assert float(jax.jit(lambda y, s: damper.power(0.0, y, s))(yv, with_tether)) < 0.0
     with pytest.raises(TypeError, match="AbstractElement"):
         free_drive.add_elements("a spring")
 
