@@ -105,3 +105,15 @@ def energy_balance_error(scene, t1: float, n_save: int) -> tuple[float, float]:
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * dt)])
     scale = float(np.abs(work).max())
     return float(np.abs((total - total[0]) - work).max() / scale), scale
+
+
+# a dissipation-free 9/18 drive (energy balances close on it)
+FREE_DRIVE = dict(
+    teeth=(9, 18),
+    n_links=40,
+    speed_rpm=600,
+    pretension=300.0,
+    restitution=1.0,
+    link_damping=0.0,
+    joint_friction=None,
+)

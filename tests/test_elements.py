@@ -11,7 +11,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import effects, forces, initial_state
 
-from helpers import energy_balance_error, tooth_period
+from helpers import FREE_DRIVE, energy_balance_error, tooth_period
 
 
 class Tether(jc.elements.AbstractElement):
@@ -48,15 +48,7 @@ class Tether(jc.elements.AbstractElement):
         return self.stiffness
 
 
-FREE = dict(
-    teeth=(9, 18),
-    n_links=40,
-    speed_rpm=600,
-    pretension=300.0,
-    restitution=1.0,
-    link_damping=0.0,
-    joint_friction=None,
-)
+FREE = FREE_DRIVE
 
 
 @pytest.fixture(scope="module")

@@ -14,19 +14,11 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
-from helpers import energy_balance_error, tooth_period
+from helpers import FREE_DRIVE, energy_balance_error, tooth_period
 
 CAM = jc.loads.Harmonic(2.0, harmonics=((2, 1.5, 0.4), (4, 0.5, -1.0)))
 # a dissipation-free 9/18 drive whose driven sprocket carries the harmonic load
-FREE = dict(
-    teeth=(9, 18),
-    n_links=40,
-    speed_rpm=600,
-    pretension=300.0,
-    restitution=1.0,
-    link_damping=0.0,
-    joint_friction=None,
-)
+FREE = FREE_DRIVE
 
 
 def test_harmonic_formula_and_mean():

@@ -1,24 +1,14 @@
-"""Contact of a roller with its nearest tooth gap, read in the tooth-fixed frame.
-
-The roller centre is rotated into the frame of its nearest gap (O(1): ``k = round(θz/2π)``,
-no loop over teeth) and folded onto the gap's upper half (the gap is mirror-symmetric).
-There the signed distance from the roller centre to the tooth *material* is the exact
-Euclidean distance to the nearest of three arcs (seat, flank, tip; each clamped to its
-end points, so the convex flank/tip corner is rounded exactly), signed positive in the gap
-and negative inside a tooth. The sign comes from a polar-graph test: seen from the
-sprocket axis, the outline over one half pitch is a graph ρ(θ), so a point is in the gap
-iff its radius exceeds ρ at its angle. Then
+"""Contact of a roller with its nearest tooth gap, read in the tooth-fixed frame, for any
+sprocket kind: the kind's contact shape gives the signed distance from the roller centre
+to the tooth material (exact for the ISO and free-form kinds: :mod:`.iso_shape`,
+:mod:`.freeform_shape`), and
 
     depth  = roller radius − signed distance   (> 0: overlap)
     normal = ∂(signed distance)/∂(point)       (unit, pushes the roller out of the tooth)
 
-Continuity: the distance to a closed set is continuous (1-Lipschitz) everywhere, and
-the fold lines (gap axis, tooth centre line at half pitch) are mirror lines of the
-outline, so the switch of nearest gap and the fold change nothing. The distance is C¹
-off the medial axis of the gap; that medial axis (the seat centre and the gap axis above
-it) lies at distance ≥ ri > d1/2 from the tooth, i.e. never in contact unless the roller
-has already sunk by more than the seat clearance ri − d1/2. Gradients are finite
-everywhere (double ``where`` around every norm and square root).
+Both are continuous in the point and the profile's leaves everywhere, with finite
+gradients. The sprockets of one drive are stacked into one vmapped contact
+(:func:`gap_shapes`).
 """
 
 from __future__ import annotations
