@@ -351,3 +351,16 @@ def test_clearance_design_quick(tmp_path):
     d = rows[other]["against_best_iso"]
     assert d["ci"][0] < d["difference_N"] < d["ci"][1]
     assert (tmp_path / "clearance_design.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+def test_startup_quick(tmp_path):
+    """Two fresh processes share one compilation cache: the second finds the solve there
+    (no program refused) and gets to its first result sooner."""
+    from benchmarks.startup import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    first, second = res["processes"]["first process"], res["processes"]["second process"]
+    assert first["refused"] == [] and second["refused"] == []
+    assert second["times_s"]["first simulate"] < first["times_s"]["first simulate"]
+    assert (tmp_path / "startup.json").exists() and (tmp_path / "startup.png").exists()
