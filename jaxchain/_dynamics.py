@@ -243,8 +243,20 @@ def _reported(effects, name):
 def effects(t, y: DriveState, scene: Scene) -> list[Effect]:
     """Every force element's :class:`~jaxchain.elements.Effect` at one instant, in
     ``scene.force_elements`` order."""
-    states = _element_states(y, scene)
-    return [el.effect(t, y, scene, z) for el, z in zip(scene.force_elements, states, strict=True)]
+    out, carried = [], []
+    for el, z in zip(scene.force_elements, _element_states(y, scene), strict=True):
+        if el.reads_tension:
+            e = el.effect(t, y, scene, z, tension=_tensions(carried, y.q.dtype))
+        else:
+            e = el.effect(t, y, scene, z)
+        if e.tension is not None:
+            carried.append(e.tension)
+        out.append(e)
+    return out
+
+
+def _tensions(parts, dtype):
+    return jnp.concatenate(parts) if parts else jnp.zeros((0,), dtype)
 
 
 # jitted: a solve calls the forces at every stage of its step, in its observers and in its
@@ -259,7 +271,6 @@ def _combine(eff: list[Effect], y: DriveState, scene: Scene) -> Forces:
     dtype = y.q.dtype
     ns, nr = len(scene.sprockets), scene.n_rollers
     na = 0 if y.arm is None else y.arm.shape[0]
-    tensions = [e.tension for e in eff if e.tension is not None]
     rates_ = [e.state_rate for e in eff if e.state_rate is not None]
     shoe_normal = _reported(eff, "shoe_normal")
     shoe_force = _reported(eff, "shoe_force")
@@ -269,7 +280,7 @@ def _combine(eff: list[Effect], y: DriveState, scene: Scene) -> Forces:
         roller_normal=_sum(_reported(eff, "roller_normal"), (ns, nr), dtype),
         sprocket_torque=_sum([e.sprocket_torque for e in eff], (ns,), dtype),
         sprocket_force=_sum([e.sprocket_force for e in eff], (ns, 2), dtype),
-        element_tension=jnp.concatenate(tensions) if tensions else jnp.zeros((0,), dtype),
+        element_tension=_tensions([e.tension for e in eff if e.tension is not None], dtype),
         shoe_normal=shoe_normal[0] if shoe_normal else None,
         shoe_force=shoe_force[0] if shoe_force else None,
         arm_torque=chain_arm[0] if (chain_arm and na) else None,

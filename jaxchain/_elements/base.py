@@ -55,10 +55,15 @@ class AbstractElement(eqx.Module):
     step.
 
     ``energy_kind`` names the energy its :meth:`energy` belongs to: ``"elastic"`` (the
-    default) or ``"gravity"``.
+    default) or ``"gravity"``; ``reads_tension`` asks for the chain's tensions (below).
     """
 
     energy_kind = "elastic"
+    #: True: :meth:`effect` takes a keyword ``tension``, the (E,) tensions [N] that the
+    #: elements before it in ``Scene.force_elements`` carry (their ``Effect.tension``,
+    #: concatenated), so that it need not compute them again (joint friction loads its
+    #: joints with them); called without it, the element computes them itself.
+    reads_tension = False
 
     def n_states(self, scene) -> int:
         """How many states of its own it carries in ``DriveState.bristle`` (static)."""

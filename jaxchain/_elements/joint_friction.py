@@ -46,8 +46,12 @@ class JointFriction(AbstractElement):
     def n_states(self, scene) -> int:
         return int(np.shape(self.joint)[0]) if isinstance(self.law, DahlFriction) else 0
 
-    def effect(self, t, y, scene, state) -> Effect:
-        body, rate = self.moments(scene.n_bodies, y.q, y.v, chain_tension(y, scene), state)
+    reads_tension = True  # the link springs' tensions, as the pair elements carry them
+
+    def effect(self, t, y, scene, state, tension=None) -> Effect:
+        if tension is None:
+            tension = chain_tension(y, scene)
+        body, rate = self.moments(scene.n_bodies, y.q, y.v, tension, state)
         return Effect(body=body, state_rate=rate, report={"friction_power": jnp.sum(body * y.v)})
 
     def moments(self, n: int, q, v, tension, state=None):
