@@ -3,6 +3,11 @@
 scene = jc.scenes.drive("08B", teeth=(18, 36), speed_rpm=1000, fidelity="lumped")
 scene = jc.scenes.drive("08B", teeth=(18, 36, 27), centres=((0, 0), (0.3, 0.05), (0.15, 0.25)))
 scene = jc.scenes.engagement("08B", teeth=18, tension=1000)
+
+or described as data first (sweeps are ``spec.replace(...)``):
+
+spec = jc.scenes.DriveSpec.of("08B", teeth=(18, 36), speed_rpm=1000)
+scene = spec.replace(speed_rpm=2000).build()
 """
 
 from ._scenes.build import (
@@ -28,6 +33,11 @@ from ._scenes.shoes import (
     Guide as Guide,
     Tensioner as Tensioner,
     shoe_law as shoe_law,
+)
+from ._scenes.spec import (
+    DriveSpec as DriveSpec,
+    SprocketSpec as SprocketSpec,
+    StrandSpec as StrandSpec,
 )
 from ._scenes.statics import (
     equilibrate as equilibrate,
