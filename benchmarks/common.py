@@ -15,6 +15,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 OUT = Path(__file__).parent / "results"
+#: the archived one-off studies' results (``benchmarks/archive/``)
+ARCHIVE = Path(__file__).parent / "archive" / "results"
 
 
 def loadavg() -> list[float] | None:
@@ -51,9 +53,12 @@ def machine_info() -> dict:
     }
 
 
-def parser(doc: str | None, quick_help: str = "small, fast smoke run") -> argparse.ArgumentParser:
-    """A parser with the study's docstring as its help, ``--quick`` and ``--out``; add the
-    study's own options to it."""
+def parser(
+    doc: str | None, quick_help: str = "small, fast smoke run", out: Path = OUT
+) -> argparse.ArgumentParser:
+    """A parser with the study's docstring as its help, ``--quick`` and ``--out`` (default
+    ``out``: ``benchmarks/results``, or an archived study's own folder); add the study's own
+    options to it."""
     ap = argparse.ArgumentParser(
         description=doc, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -61,7 +66,7 @@ def parser(doc: str | None, quick_help: str = "small, fast smoke run") -> argpar
     ap.add_argument(
         "--out",
         type=Path,
-        default=OUT,
+        default=out,
         help="folder for the JSON and the chart (default: %(default)s)",
     )
     return ap

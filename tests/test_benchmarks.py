@@ -48,7 +48,7 @@ def test_fidelity_benchmark_quick(tmp_path):
 
 @pytest.mark.slow
 def test_tension_climb_benchmark_quick(tmp_path):
-    from benchmarks.tension_climb import main
+    from benchmarks.archive.tension_climb import main
 
     res = main(["--quick", "--out", str(tmp_path)])
     s = res["statics"]
@@ -172,7 +172,7 @@ def test_design_freedoms_reads_both_runs(tmp_path):
     """The design-freedoms table from the two committed main-job runs (no simulation):
     every design's worst peak as its run re-measured it, against the ISO minimum form;
     runs made on different operating points are refused."""
-    from benchmarks.design_freedoms import FREEFORM, ISO, main
+    from benchmarks.archive.design_freedoms import FREEFORM, ISO, main
 
     res = main(["--out", str(tmp_path)])
     rows = {(r["freedom"], r["design"]): r for r in res["table"]["rows"]}
@@ -232,7 +232,7 @@ def test_pattern_remeasure_quick(tmp_path):
     """The per-tooth designs' re-measurement, quick (the uniform start and Adam's pattern
     from the committed every-gap result, rtol 1e-7): six members each, finite peaks under
     both laws, the changes against the start computed from them, the chart written."""
-    from benchmarks.pattern_remeasure import main
+    from benchmarks.archive.pattern_remeasure import main
 
     res = main(["--quick", "--out", str(tmp_path)])
     rows = {r["design"]: r for r in res["rows"]}
@@ -258,7 +258,7 @@ def test_pattern_design_quick(tmp_path, robust):
     perturbed start, re-measured at rtol 1e-7): the history, the three re-measured designs
     with six members under both laws, the changes against the uniform form, the chart;
     robust: both design laws' values in every step, the uniform form's objective 1."""
-    from benchmarks.pattern_design import main
+    from benchmarks.archive.pattern_design import main
 
     res = main(["--quick", "--out", str(tmp_path), *(["--robust"] if robust else [])])
     assert res["form"] == "min" and [h["step"] for h in res["history"]] == [0, 1]

@@ -141,7 +141,7 @@ def drive(
             clearance chain); None: frictionless joints. It is what damps
             the spans' transverse vibration: without it the spans' mean tension
             climbs to several times the static (``python -m
-            benchmarks.tension_climb``).
+            benchmarks.archive.tension_climb``).
         driven_inertia: [kg·m²], of every driven sprocket or one per driven sprocket;
             default a steel disc of the pitch diameter.
         impact_speed: reference impact speed of the history-free damping [m/s].

@@ -1,10 +1,10 @@
 """Independent re-measurement of per-tooth designs: the every-gap row of the ``methods``
 study, every gap meshed with the nominal model.
 
-    python -m benchmarks.pattern_remeasure            # the every-gap designs (~6 min)
-    python -m benchmarks.pattern_remeasure --quick    # the start and Adam's design, looser
+    python -m benchmarks.archive.pattern_remeasure            # the every-gap designs (~6 min)
+    python -m benchmarks.archive.pattern_remeasure --quick    # the start and Adam's design, looser
 
-Writes ``benchmarks/results/pattern_remeasure.json`` and ``pattern_remeasure.png``.
+Writes ``benchmarks/archive/results/pattern_remeasure.json`` and ``pattern_remeasure.png``.
 
 ``python -m benchmarks.methods --dimensions 36g`` designs a per-tooth pattern (each gap's
 seating radius ±20 µm and clockwise seat angle ±0.04 rad around the ISO 606 mid form, 36
@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import finish, header, parse, parser, save_chart, shown
+from benchmarks.common import ARCHIVE, finish, header, parse, parser, save_chart, shown
 
-RESULT = Path(__file__).parent / "results" / "methods_every_gap.json"
+RESULT = Path(__file__).parents[1] / "results" / "methods_every_gap.json"
 
 
 def run_name(run: dict) -> str:
@@ -53,7 +53,7 @@ def designs(result: dict, size: int, quick: bool) -> dict[str, np.ndarray | None
 
 
 def main(argv=None) -> dict:
-    ap = parser(__doc__, quick_help="the start and Adam's design, rtol 1e-7")
+    ap = parser(__doc__, out=ARCHIVE, quick_help="the start and Adam's design, rtol 1e-7")
     ap.add_argument("--result", type=Path, default=RESULT, help="a methods result file")
     ap.add_argument("--rtol", type=float, default=None, help="default 1e-9 (quick: 1e-7)")
     args = parse(ap, argv)

@@ -1,9 +1,9 @@
 """The closed drive's tension climb: what joint friction changes.
 
-    python -m benchmarks.tension_climb            # full study (~8 min on 2 cores)
-    python -m benchmarks.tension_climb --quick    # smoke run (CI-sized)
+    python -m benchmarks.archive.tension_climb            # full study (~8 min on 2 cores)
+    python -m benchmarks.archive.tension_climb --quick    # smoke run (CI-sized)
 
-Writes ``benchmarks/results/tension_climb.json`` and ``tension_climb.png``.
+Writes ``benchmarks/archive/results/tension_climb.json`` and ``tension_climb.png``.
 
 The drive is ``jc.scenes.drive("10A", (13, 26), n_links=60, speed_rpm=600,
 load_torque=30, pretension=300)``, lumped, settled, Tsit5 at rtol 1e-6. Its independent
@@ -37,12 +37,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import (  # noqa: E402
-    finish,
-    machine_info,  # noqa: E402
-    parse,
-    parser,
-)
+from benchmarks.common import ARCHIVE, finish, machine_info, parse, parser  # noqa: E402
 
 SCENE = dict(chain="10A", teeth=(13, 26), n_links=60, load_torque=30.0, pretension=300.0)
 NOMINAL_RPM = 600.0
@@ -207,7 +202,7 @@ def chart(res: dict, path) -> None:
     ax[1, 1].legend(fontsize=8)
     fig.suptitle(
         "10A 13/26 drive, 60 links, 30 N·m, 300 N pretension — "
-        f"python -m benchmarks.tension_climb{' --quick' if res['quick'] else ''}, "
+        f"python -m benchmarks.archive.tension_climb{' --quick' if res['quick'] else ''}, "
         f"{res['date']}, {res['machine']['cpu_count']}-core CPU",
         fontsize=9,
     )
@@ -217,7 +212,7 @@ def chart(res: dict, path) -> None:
 
 
 def main(argv=None):
-    args = parse(parser(__doc__), argv)
+    args = parse(parser(__doc__, out=ARCHIVE), argv)
     p = (
         dict(revs=0.3, mus=(None, 0.1), speeds=(600.0,))
         if args.quick

@@ -1,14 +1,14 @@
 """A per-tooth pattern around a uniform ISO 606 form, designed by gradient on every gap and
 re-measured.
 
-    python -m benchmarks.pattern_design               # around the minimum form (~4 min)
-    python -m benchmarks.pattern_design --form mid    # around the mid form
-    python -m benchmarks.pattern_design --robust      # against both contact laws (~8 min)
-    python -m benchmarks.pattern_design --robust --hertz-temperature 5 --member-max 5 \
+    python -m benchmarks.archive.pattern_design               # around the minimum form (~4 min)
+    python -m benchmarks.archive.pattern_design --form mid    # around the mid form
+    python -m benchmarks.archive.pattern_design --robust      # against both contact laws (~8 min)
+    python -m benchmarks.archive.pattern_design --robust --hertz-temperature 5 --member-max 5 \
         --lr 0.2 --steps 16                           # the worst gap under both laws
-    python -m benchmarks.pattern_design --quick       # 2 Adam steps, looser re-measurement
+    python -m benchmarks.archive.pattern_design --quick       # 2 Adam steps, looser re-measurement
 
-Writes ``benchmarks/results/pattern_design_<form>[_robust][...].json`` and ``.png``, a
+Writes ``benchmarks/archive/results/pattern_design_<form>[_robust][...].json`` and ``.png``, a
 suffix naming each design-model or Adam option that differs from its default
 (``--width``/``--dt``: the contact onset [µm] and step [µs], 3 and 4;
 ``--hertz-temperature``: the Hertz design objective's soft peak [N], 20; ``--member-max``:
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import finish, header, parse, parser, save_chart
+from benchmarks.common import ARCHIVE, finish, header, parse, parser, save_chart
 from benchmarks.designs import (
     add_model_options,
     design_objectives,
@@ -115,7 +115,7 @@ def chart(results: dict, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    ap = parser(__doc__, quick_help="2 Adam steps, re-measured at rtol 1e-7")
+    ap = parser(__doc__, out=ARCHIVE, quick_help="2 Adam steps, re-measured at rtol 1e-7")
     ap.add_argument("--form", choices=("min", "mid", "max"), default="min")
     ap.add_argument("--steps", type=int, default=12, help="Adam steps (default %(default)s)")
     ap.add_argument("--sigma", type=float, default=0.1, help="start noise (default %(default)s)")

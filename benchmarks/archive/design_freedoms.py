@@ -2,7 +2,7 @@
 
     python -m optimize --problem iso --out benchmarks/results/optimize_iso   # ~8 min
     python -m optimize --out benchmarks/results/optimize_default              # 503 s
-    python -m benchmarks.design_freedoms                                      # seconds
+    python -m benchmarks.archive.design_freedoms                                      # seconds
 
 Reads the two main-job runs (``--iso``, ``--freeform``: their ``results.json``) and puts
 their re-measured designs side by side: the ISO 606 forms (no freedom), the ISO 606 box
@@ -22,9 +22,9 @@ import json
 import time
 from pathlib import Path
 
-from benchmarks.common import finish, header, parse, parser, shown
+from benchmarks.common import ARCHIVE, finish, header, parse, parser, shown
 
-RESULTS = Path(__file__).parent / "results"
+RESULTS = Path(__file__).parents[1] / "results"
 ISO = RESULTS / "optimize_iso" / "results.json"
 FREEFORM = RESULTS / "optimize_default" / "results.json"
 LAWS = ("johnson", "hertz")
@@ -145,7 +145,7 @@ def chart(results: dict, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    ap = parser(__doc__, quick_help="(no effect: nothing is simulated)")
+    ap = parser(__doc__, out=ARCHIVE, quick_help="(no effect: nothing is simulated)")
     ap.add_argument("--iso", type=Path, default=ISO, help="the ISO-box run's results.json")
     ap.add_argument("--freeform", type=Path, default=FREEFORM,
                     help="the free-form run's results.json")  # fmt: skip

@@ -1,0 +1,1 @@
+"""One-off investigations, kept with their results (see README.md here)."""
