@@ -138,7 +138,7 @@ class PeakRecord(AbstractStepObserver):
 
     def init(self, t0, y0, scene):
         f0 = _roller_forces(y0, scene)
-        return jnp.max(f0), f0
+        return jnp.max(f0, initial=0.0), f0  # forces ≥ 0; 0 for a scene without rollers
 
     def step(self, t0, t1, y0, y1, dense, scene, state):
         peak, f0 = state
@@ -147,7 +147,7 @@ class PeakRecord(AbstractStepObserver):
         ys = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b[None]]), dense(ts), y1)
         f = jax.vmap(_roller_forces, in_axes=(0, None))(ys, scene)
         f = jnp.concatenate([f0[None], f])  # (n + 1, R) at t0, t0 + h/n, ..., t1
-        peak = jnp.maximum(peak, jnp.max(parabola_max(f[:-2], f[1:-1], f[2:])))
+        peak = jnp.maximum(peak, jnp.max(parabola_max(f[:-2], f[1:-1], f[2:]), initial=0.0))
         return peak, f[-1]  # the end force serves as the next step's start
 
     def value(self, state, t0, t1):
@@ -166,7 +166,7 @@ class Health(AbstractStepObserver):
     chain's tensile strength). Carried by every solve; read by the one classification."""
 
     def _limits(self, scene):
-        size = jnp.max(jnp.abs(scene.q0[:, :2])) + jnp.max(
+        size = jnp.max(jnp.abs(scene.q0[:, :2]), initial=0.0) + jnp.max(
             jnp.stack([jnp.max(jnp.abs(s.centre)) for s in scene.sprockets])
         )
         chain_speed = jnp.max(

@@ -144,6 +144,14 @@ class AbstractProfile(eqx.Module):
         r = float(self.pitch_radius)
         return r * np.stack([np.cos(a), np.sin(a)], -1)
 
+    def pitch_polar(self) -> tuple[Array, Array]:
+        """The seat centres in polar form, sprocket frame, as arrays of the profile's
+        leaves (differentiable): radius (z,) [m] and angle (z,) [rad]. Seat k on the pitch
+        circle at angle 2πk/z by default."""
+        z = self.teeth
+        r = jnp.asarray(self.pitch_radius)
+        return jnp.broadcast_to(r, (z,)), 2 * jnp.pi * jnp.arange(z, dtype=r.dtype) / z
+
     def outline_arcs(self) -> list[tuple]:
         """The sprocket's closed outline as circular arcs, counter-clockwise round the
         sprocket: ``(centre (2,), radius, start angle, end angle)`` [m, rad], each arc

@@ -220,6 +220,14 @@ class FreeformProfile(AbstractProfile):
             raise ValueError(f"arcs must be an integer in [{self.arcs}, 16], got {arcs!r}")
         return _refine(self, arcs)
 
+    def pitch_polar(self) -> tuple[Array, Array]:
+        """Seat k at radius R + seat_offset[k] and angle 2πk/z + phase[k] (arrays of the
+        leaves, differentiable)."""
+        z = self.teeth
+        r = self.pitch_radius + jnp.broadcast_to(self.seat_offset, (z,))
+        a = 2 * jnp.pi * jnp.arange(z, dtype=r.dtype) / z + jnp.broadcast_to(self.phase, (z,))
+        return r, a
+
     def pitch_points(self) -> np.ndarray:
         """(z, 2) the seat centres [m], sprocket frame: seat k at radius R + seat_offset[k]
         on the ray at angle 2πk/z + phase[k]."""

@@ -46,7 +46,7 @@ def check_common(
     from .._contact.friction import CoulombFriction
 
     speed = checks.real("speed_rpm", speed_rpm, lo=0.0, lo_open=True, unit="rpm")
-    checks.choice("fidelity", fidelity, ("lumped", "clearance"))
+    checks.choice("fidelity", fidelity, ("lumped", "clearance", "spans"))
     checks.choice("form", form, ("min", "max", "mid"))
     checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
     from .._contact.dahl import DahlFriction

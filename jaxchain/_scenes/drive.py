@@ -35,6 +35,7 @@ from .common import (
 from .layout import closed_drive_layout, transport_velocity
 from .loop_drive import loop_drive
 from .shoes import Guide, Tensioner
+from .spans import spans_drive
 from .statics import equilibrate
 
 __all__ = ["drive"]
@@ -53,7 +54,7 @@ def drive(
     load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
     pretension: float = 200.0,
     elongation: float = 0.0,
-    fidelity: Literal["lumped", "clearance"] = "lumped",
+    fidelity: Literal["lumped", "clearance", "spans"] = "lumped",
     form: Literal["min", "max", "mid"] = "mid",
     profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
     restitution: float = 0.7,
@@ -128,8 +129,11 @@ def drive(
             sprockets stay cut for p (ISO 606 tooth forms tolerate about 0.03). The worn
             chain rides higher in the gaps and is longer: with ``n_links`` given, the
             take-up moves out by what the longer loop needs.
-        fidelity: "lumped" (rollers + elastic links) or "clearance" (rigid links,
-            pin/bush and bush/roller clearance joints).
+        fidelity: "lumped" (rollers + elastic links), "clearance" (rigid links,
+            pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
+            spans as axial springs between the sprockets' pitch curves, for the drive's
+            tensions and speeds over many revolutions; fixed axes, no tensioner, guides or
+            gravity; see :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
         form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
         profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
         restitution: coefficient of restitution of every contact at ``impact_speed``.
@@ -178,6 +182,12 @@ def drive(
         link_damping=link_damping,
     )
     gravity = as_gravity(gravity)
+    if fidelity == "spans":
+        return _spans(
+            chain, teeth, centres, centre_distance, outside, take_up_sprocket, n_links,
+            speed_rpm, load_torque, pretension, elongation, form, profiles, driven_inertia,
+            load_ramp, link_damping, tensioner, guides, gravity,
+        )  # fmt: skip
     if shoe_contact is not None:
         checks.instance(
             "shoe_contact", shoe_contact, AbstractContactLaw,
@@ -358,3 +368,43 @@ def drive(
         gravity=gravity,
     )
     return equilibrate(scene, take_up=2 * pretension) if settle else scene
+
+
+def _spans(
+    chain, teeth, centres, centre_distance, outside, take_up_sprocket, n_links, speed_rpm,
+    load_torque, pretension, elongation, form, profiles, driven_inertia, load_ramp,
+    link_damping, tensioner, guides, gravity,
+) -> Scene:  # fmt: skip
+    """``fidelity="spans"``: what it models, checked, then :func:`.spans.spans_drive`."""
+    unsupported = {
+        "tensioner": tensioner is not None,
+        "guides": guides is not None and len(guides) > 0,
+        "gravity": gravity is not None,
+        "elongation": elongation != 0.0,
+        "n_links": n_links is not None,
+    }
+    given = [name for name, is_given in unsupported.items() if is_given]
+    if given:
+        raise ValueError(
+            f"fidelity='spans' does not model {', '.join(given)}: the span-level chain has "
+            "fixed sprocket axes and massless spans whose length follows from the axes (give "
+            "centre_distance or centres); use fidelity='lumped' for them"
+        )
+    if centres is None:
+        z = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
+        c = 40 * chain.pitch if centre_distance is None else centre_distance
+        c = checks.real("centre_distance", c, lo=0.0, lo_open=True, unit="m")
+        centres, teeth = ((0.0, 0.0), (c, 0.0)), tuple(z)
+    elif centre_distance is not None:
+        raise ValueError(
+            "give centres (the axes of every sprocket) or centre_distance (two sprockets on "
+            "the x axis), not both"
+        )
+    if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
+        raise TypeError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
+    return spans_drive(
+        chain, tuple(teeth), centres, outside=outside, take_up_sprocket=take_up_sprocket,
+        speed_rpm=speed_rpm, load_torque=load_torque, pretension=pretension, form=form,
+        profiles=profiles, driven_inertia=driven_inertia, load_ramp=load_ramp,
+        link_damping=link_damping,
+    )  # fmt: skip

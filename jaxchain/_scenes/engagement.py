@@ -97,6 +97,11 @@ def engagement(
         settle=settle,
         link_damping=link_damping,
     )
+    if fidelity == "spans":
+        raise ValueError(
+            "fidelity='spans' has no rollers to mesh: the engagement strand needs 'lumped' "
+            "or 'clearance' (the span-level chain is a fidelity of jc.scenes.drive)"
+        )
     tension = checks.real(
         "tension", tension, lo=0.0, lo_open=True, unit="N (a slack entry span does not mesh)"
     )

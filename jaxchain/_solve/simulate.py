@@ -224,7 +224,7 @@ def peak_of(saved: dict, step_peak: Array) -> Array:
     """The peak roller/tooth force: the peak record's, and the save times' (members first
     when batched)."""
     f = saved["roller_sprocket_force"]
-    return jnp.maximum(step_peak, jnp.max(f, axis=tuple(range(f.ndim - 2, f.ndim))))
+    return jnp.maximum(step_peak, jnp.max(f, axis=tuple(range(f.ndim - 2, f.ndim)), initial=0.0))
 
 
 def simulate(

@@ -1,0 +1,238 @@
+"""The span-level chain (``fidelity="spans"``): no rollers, the chain's free spans as
+axial springs between the tangent points of the sprockets' pitch curves.
+
+Each sprocket's pitch curve is the closed curve through its seat centres,
+r(φ) = a₀ + Σₘ (aₘ cos mφ + bₘ sin mφ) in the sprocket frame (least squares through the
+seats; a circle of the pitch radius for a round sprocket; the oval of a non-circular one
+exactly up to its fitted order). The chain is inextensible where it is wrapped and does
+not slip on a sprocket, so the chain material at a point of a pitch curve stays there
+while wrapped. Span j (from sprocket j to j + 1 round the loop) then holds the unstretched
+length
+
+    u_j(θ) = C_j + s_{j+1}·S_{j+1}(φ_{j+1}) − s_j·S_j(φ_j),
+
+S_k the arc length of sprocket k's pitch curve up to the sprocket-frame angle φ_k of the
+span's tangent point, s_k = +1 for a sprocket inside the loop (−1 outside), C_j set by
+the start. Its stretch is e_j = L_j(θ) − u_j(θ), L_j the tangent-to-tangent length: a
+function of the sprocket angles θ alone. The tension is
+
+    T_j = k_j·ramp(e_j) + c_j·ramp'(e_j)·ė_j,   ramp(e) = (e + √(e² + w²))/2
+
+(a chain does not push: below zero stretch the tension fades smoothly over w = 1 N/k_j),
+with the potential V = Σ k_j·∫ramp and the sprocket torques τ = −Σ_j T_j ∂e_j/∂θ: the
+energy balance closes exactly and everything is smooth in the angles and in the pitch
+curves' leaves. For round sprockets ∂e_j/∂θ_k = ±R_k: the tension difference over the
+pitch radius. Polygonal action enters only through a non-circular pitch curve; the
+spans carry no mass (their transverse vibration is left out).
+
+The tangent line of span j has unit normal n (pointing away from the sprockets inside
+the loop) with n·c_j + s_j·h_j(s_j·n) = n·c_{j+1} + s_{j+1}·h_{j+1}(s_{j+1}·n), h_k the
+support function of pitch curve k; a few Newton steps from the round sprockets' tangent
+solve it (and the support points), unrolled so their derivatives are exact.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float, Int
+
+from .base import AbstractElement, Effect
+
+__all__ = ["Spans", "pitch_curve_coefficients", "scaled_curve"]
+
+#: Newton steps of the tangent line and its two tangent points (quadratic convergence
+#: from the round sprockets' line; ample for pitch curves within a few % of round)
+_TANGENT_STEPS = 3
+#: samples per revolution of the arc-length integrand (its Fourier series); harmonics kept
+_ARC_SAMPLES = 64
+_ARC_HARMONICS = 16
+
+
+def pitch_curve_coefficients(radius, angle, order: int):
+    """(2·order + 1,) coefficients (a₀, a₁, b₁, …) of the least-squares trigonometric
+    curve r(φ) through the seats at sprocket-frame polar ``radius`` (z,) [m] and ``angle``
+    (z,) [rad]; differentiable in both."""
+    m = jnp.arange(1, order + 1)
+    cols = [jnp.ones_like(angle)]
+    cols += [f(mm * angle) for mm in m for f in (jnp.cos, jnp.sin)]
+    a = jnp.stack(cols, -1)
+    return jnp.linalg.solve(a.T @ a, a.T @ radius)
+
+
+def _radius(coef, phi):
+    """r, r', r'' of the pitch curve at sprocket-frame angle ``phi``."""
+    order = (coef.shape[-1] - 1) // 2
+    m = jnp.arange(1, order + 1, dtype=phi.dtype)
+    a, b = coef[1::2], coef[2::2]
+    c, s = jnp.cos(m * phi), jnp.sin(m * phi)
+    r = coef[0] + jnp.sum(a * c + b * s)
+    dr = jnp.sum(m * (b * c - a * s))
+    ddr = -jnp.sum(m * m * (a * c + b * s))
+    return r, dr, ddr
+
+
+def _curve(coef, phi):
+    """The point p(φ) and its derivatives p', p'' (sprocket frame)."""
+    r, dr, ddr = _radius(coef, phi)
+    e = jnp.stack([jnp.cos(phi), jnp.sin(phi)])
+    t = jnp.stack([-e[1], e[0]])
+    return r * e, dr * e + r * t, (ddr - r) * e + 2 * dr * t
+
+
+def scaled_curve(coef, perimeter):
+    """The pitch curve ``coef`` scaled so that its length is ``perimeter`` (z chain pitches:
+    the seat polygon's chords; so the mean speed ratio of two sprockets is exactly the
+    ratio of their tooth counts), and its arc length as a Fourier series (mean, a (M,),
+    b (M,)): S(φ) = mean·φ + Σ (aₘ sin mφ − bₘ (cos mφ − 1))/m."""
+    n = _ARC_SAMPLES
+    phi = 2 * jnp.pi * jnp.arange(n, dtype=coef.dtype) / n
+    r, dr, _ = jax.vmap(_radius, in_axes=(None, 0))(coef, phi)
+    spec = jnp.fft.rfft(jnp.sqrt(r * r + dr * dr)) / n
+    scale = perimeter / (2 * jnp.pi * spec[0].real)
+    k = slice(1, _ARC_HARMONICS + 1)
+    return scale * coef, (
+        scale * spec[0].real,
+        2 * scale * spec[k].real,
+        -2 * scale * spec[k].imag,
+    )
+
+
+def _arc_length(mean, a, b, phi):
+    m = jnp.arange(1, a.shape[0] + 1, dtype=phi.dtype)
+    return mean * phi + jnp.sum((a * jnp.sin(m * phi) - b * (jnp.cos(m * phi) - 1)) / m)
+
+
+def _ramp(e, w):
+    return 0.5 * (e + jnp.sqrt(e * e + w * w))
+
+
+def _ramp_potential(e, w):
+    s = jnp.sqrt(e * e + w * w)
+    return 0.25 * (e * e + e * s + w * w * jnp.arcsinh(e / w))
+
+
+class Spans(AbstractElement):
+    """The free spans of the span-level chain (module docstring).
+
+    Span j runs from sprocket ``start[j]`` to ``end[j]`` (j + 1 round the loop).
+
+    Attributes:
+        start, end: (J,) sprocket indices of each span's ends.
+        sense: (S,) +1 for a sprocket inside the loop, −1 outside.
+        coefficients: (S, 2M + 1) each sprocket's pitch curve, scaled to its perimeter
+            (:func:`scaled_curve`).
+        arc_mean, arc_cos, arc_sin: (S,), (S, H), (S, H) its arc length's series.
+        normal_angle: (J,) world angle of each span's outward normal at the start (its
+            tangent-line solve starts there).
+        base: (J,) C_j [m], the spans' unstretched lengths' constants.
+        stiffness: (J,) k_j [N/m].
+        damping: (J,) c_j [N·s/m].
+    """
+
+    start: Int[Array, " J"]
+    end: Int[Array, " J"]
+    sense: Float[Array, " S"]
+    coefficients: Float[Array, "S C"]
+    arc_mean: Float[Array, " S"]
+    arc_cos: Float[Array, "S H"]
+    arc_sin: Float[Array, "S H"]
+    normal_angle: Float[Array, " J"]
+    base: Float[Array, " J"]
+    stiffness: Float[Array, " J"]
+    damping: Float[Array, " J"]
+
+    def geometry(self, theta, centres):
+        """Each span at sprocket angles ``theta`` (S,) for axes ``centres`` (S, 2):
+        (L (J,) [m], u (J,) [m], the moment arms of its line about its two sprockets'
+        axes (J, 2) [m], its tangent points (J, 2, 2) [m])."""
+
+        def one(ja, jb, beta, base):
+            sa, sb = self.sense[ja], self.sense[jb]
+            ca, cb = self.coefficients[ja], self.coefficients[jb]
+            rot = [
+                (jnp.cos(theta[k]), jnp.sin(theta[k])) for k in (ja, jb)
+            ]  # (cos, sin) of each end's angle
+
+            def world(k, v):
+                c, s = rot[k]
+                return jnp.stack([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+            # sprocket-frame angles of the tangent points: the world angle of s·n less the
+            # sprocket's (unwrapped) angle, continuous in time
+            pa = beta + jnp.where(sa > 0, 0.0, jnp.pi) - theta[ja]
+            pb = beta + jnp.where(sb > 0, 0.0, jnp.pi) - theta[jb]
+            for _ in range(_TANGENT_STEPS):
+                n = jnp.stack([jnp.cos(beta), jnp.sin(beta)])
+                t = jnp.stack([-n[1], n[0]])
+                xa, da, dda = (world(0, v) for v in _curve(ca, pa))
+                xb, db, ddb = (world(1, v) for v in _curve(cb, pb))
+                xa, xb = xa + centres[ja], xb + centres[jb]
+                # tangency at both ends and one line: F = (n·x_a', n·x_b', n·(x_a − x_b)) = 0
+                f1, f2, f3 = n @ da, n @ db, n @ (xa - xb)
+                j11, j12 = t @ da, n @ dda
+                j21, j23 = t @ db, n @ ddb
+                j31, j32, j33 = t @ (xa - xb), f1, -f2
+                # Cramer's rule on [[j11, j12, 0], [j21, 0, j23], [j31, j32, j33]]
+                det = j11 * (-j23 * j32) - j12 * (j21 * j33 - j23 * j31)
+                d_beta = (f1 * (-j23 * j32) - j12 * (f2 * j33 - j23 * f3)) / det
+                d_pa = (j11 * (f2 * j33 - j23 * f3) - f1 * (j21 * j33 - j23 * j31)) / det
+                d_pb = (
+                    j11 * (0 * f3 - f2 * j32) - j12 * (j21 * f3 - f2 * j31) + f1 * (j21 * j32)
+                ) / det
+                beta, pa, pb = beta - d_beta, pa - d_pa, pb - d_pb
+            n = jnp.stack([jnp.cos(beta), jnp.sin(beta)])
+            t = jnp.stack([-n[1], n[0]])  # travel direction, start → end
+            xa = centres[ja] + world(0, _curve(ca, pa)[0])
+            xb = centres[jb] + world(1, _curve(cb, pb)[0])
+            length = t @ (xb - xa)
+            arms = jnp.stack([sa * (n @ (xa - centres[ja])), sb * (n @ (xb - centres[jb]))])
+            u = (
+                base
+                + sb * _arc_length(self.arc_mean[jb], self.arc_cos[jb], self.arc_sin[jb], pb)
+                - sa * _arc_length(self.arc_mean[ja], self.arc_cos[ja], self.arc_sin[ja], pa)
+            )
+            return length, u, arms, jnp.stack([xa, xb])
+
+        return jax.vmap(one)(self.start, self.end, self.normal_angle, self.base)
+
+    def stretch(self, theta, centres):
+        """(J,) e_j = L_j − u_j [m]."""
+        length, u, _, _ = self.geometry(theta, centres)
+        return length - u
+
+    def _width(self):
+        return 1.0 / self.stiffness  # 1 N of tension
+
+    def tensions(self, theta, omega, centres):
+        """(T (J,) [N], torques (S,) [N·m]) at angles ``theta`` and speeds ``omega``.
+
+        ∂e_j/∂θ is the span line's moment arm about each end's axis (−s_a·h_a at its
+        start, +s_b·h_b at its end: the chain's force acts along the line), so the
+        torques are T_j·s·h and the stretch rate is their transpose at ω."""
+        length, u, arms, _ = self.geometry(theta, centres)
+        e = length - u
+        ga = -self.sense[self.start] * arms[:, 0]  # ∂e_j/∂θ_start
+        gb = self.sense[self.end] * arms[:, 1]  # ∂e_j/∂θ_end
+        rate = ga * omega[self.start] + gb * omega[self.end]
+        w = self._width()
+        opening = 0.5 * (1 + e / jnp.sqrt(e * e + w * w))  # ramp'(e)
+        tension = self.stiffness * _ramp(e, w) + self.damping * opening * rate
+        torque = jnp.zeros_like(theta).at[self.start].add(-tension * ga)
+        return tension, torque.at[self.end].add(-tension * gb)
+
+    def effect(self, t, y, scene, state) -> Effect:
+        centres = jnp.stack([s.centre for s in scene.sprockets])
+        tension, torque = self.tensions(y.theta, y.omega, centres)
+        return Effect(body=jnp.zeros_like(y.q), sprocket_torque=torque, tension=tension)
+
+    def energy(self, t, y, scene) -> Array:
+        centres = jnp.stack([s.centre for s in scene.sprockets])
+        e = self.stretch(y.theta, centres)
+        return jnp.sum(self.stiffness * _ramp_potential(e, self._width()))
+
+    def outputs(self, t, y, scene, effect) -> dict[str, Array]:
+        return {"span_tension": effect.tension}
+
+    def max_stiffness(self, scene, force) -> Array:
+        return jnp.max(self.stiffness)

@@ -1,0 +1,177 @@
+"""The span-level chain (``fidelity="spans"``): statics and speed ratios in closed form,
+the torques are the span lines' moment arms (virtual work: AD of the stretch), the energy
+balance closes, its design gradient matches central differences, and what it does not
+model is refused with the fix."""
+
+import dataclasses
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxchain as jc
+from jaxchain._dynamics import forces, initial_state
+from jaxchain._elements.spans import scaled_curve
+
+from helpers import energy_balance_error
+
+CHAIN = jc.ChainSpec.iso606("08B")
+ISO18, ISO36 = jc.ToothProfile.iso606(CHAIN, 18), jc.ToothProfile.iso606(CHAIN, 36)
+
+
+def oval(amplitude=1e-3, phase=0.3):
+    return jc.FreeformProfile.noncircular(ISO18, ((2, amplitude, phase),))
+
+
+@pytest.fixture(scope="module")
+def round_drive():
+    return jc.scenes.drive(
+        CHAIN, teeth=(18, 36), speed_rpm=1000, load_torque=20.0, pretension=200.0,
+        fidelity="spans",
+    )  # fmt: skip
+
+
+def test_statics_and_speed_ratio_of_round_sprockets(round_drive):
+    """At rest the spans carry the statics: tight − slack = load·2π/(z₂p) (the chain's
+    effective radius), tight + slack = 2·pretension, and the torques balance; running,
+    the mean speed ratio is z₁/z₂ exactly and the tensions stay."""
+    y = initial_state(round_drive)
+    fr = forces(0.0, y, round_drive)
+    slack, tight = np.asarray(fr.element_tension)
+    r2 = 36 * CHAIN.pitch / (2 * math.pi)
+    np.testing.assert_allclose(tight - slack, 20.0 / r2, rtol=1e-9)
+    np.testing.assert_allclose(tight + slack, 400.0, rtol=1e-9)
+    np.testing.assert_allclose(fr.sprocket_torque, [-10.0, 20.0], rtol=1e-9)
+    sol = jc.simulate(round_drive, 0.12, n_save=201)
+    assert sol.ok, sol.message
+    w = np.asarray(sol.sprocket_speed)
+    np.testing.assert_allclose(w[:, 1].mean() / w[:, 0].mean(), 0.5, rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(sol.link_tension).mean(0), [slack, tight], rtol=1e-3)
+    assert sol.element_outputs["span_tension"].shape == (201, 2)
+
+
+def test_torques_are_the_span_lines_moment_arms():
+    """∂e_j/∂θ of the stretch (AD through the tangent-line Newton and the arc length) is
+    the span line's moment arm about each end's axis (−s·h at its start, +s·h at its end):
+    the chain's force acts along the line."""
+    scene = jc.scenes.drive(
+        CHAIN, teeth=(18, 36, 27), centres=((0.0, 0.0), (0.3, 0.05), (0.1, 0.25)),
+        profiles=(oval(), ISO36, jc.ToothProfile.iso606(CHAIN, 27)), outside=(2,),
+        load_torque=(10.0, 0.0), pretension=300.0, fidelity="spans",
+    )  # fmt: skip
+    el = scene.elements[0]
+    centres = jnp.stack([s.centre for s in scene.sprockets])
+
+    @jax.jit
+    def both(el, theta):
+        jac = jax.jacfwd(lambda t: el.stretch(t, centres))(theta)
+        _, _, arms, _ = el.geometry(theta, centres)
+        rows = jnp.arange(3)
+        analytic = jnp.zeros((3, 3)).at[rows, el.start].add(-el.sense[el.start] * arms[:, 0])
+        return jac, analytic.at[rows, el.end].add(el.sense[el.end] * arms[:, 1])
+
+    for theta in ([0.3, -0.2, 0.1], [1.7, 2.9, -4.0]):
+        jac, analytic = both(el, jnp.asarray(theta))
+        np.testing.assert_allclose(jac, analytic, atol=1e-12)
+    # an idler outside the loop turns the other way, at z₁/z₃ of the driver's speed
+    assert float(scene.sprockets[2].speed) == pytest.approx(
+        -float(scene.sprockets[0].speed) * 18 / 27
+    )
+
+
+def test_energy_balance_closes_with_a_noncircular_crank():
+    """Undamped, a harmonic load on the driven sprocket: Δ(stored energy) = driver work −
+    load work, to the work integral's quadrature error."""
+    scene = jc.scenes.drive(
+        CHAIN, teeth=(18, 36), profiles=(oval(), ISO36), speed_rpm=1000,
+        load_torque=jc.loads.Harmonic(10.0, ((2, 4.0, 0.0),)), pretension=300.0,
+        fidelity="spans", link_damping=0.0,
+    )  # fmt: skip
+    err, scale = energy_balance_error(scene, 0.01, 4001)
+    assert scale > 0.05
+    assert err < 1e-4, err
+
+
+def test_the_span_element_is_differentiable_in_the_pitch_curve():
+    """The torque on the driven sprocket at angles away from the start, as a function of
+    the crank's 2nd-order pitch-curve coefficient (through the arc length's series, the
+    tangent lines' Newton and the moment arms): AD = central differences. (Through the
+    pitch polygon and a solve: the slow test below and ``benchmarks.spans``.)"""
+    base = jc.scenes.drive(
+        CHAIN, teeth=(18, 36), profiles=(oval(), ISO36), load_torque=20.0, pretension=200.0,
+        fidelity="spans",
+    )  # fmt: skip
+    el = base.elements[0]
+    centres = jnp.stack([s.centre for s in base.sprockets])
+    theta, omega = jnp.asarray([0.4, 0.15]), jnp.asarray([100.0, 50.0])
+    perimeter = jnp.asarray([18 * CHAIN.pitch, 36 * CHAIN.pitch])
+
+    @jax.jit
+    def torque(c):
+        coef = el.coefficients.at[0, 3].add(c)  # a₂ of the crank
+        curves = jax.vmap(scaled_curve)(coef, perimeter)
+        spans = dataclasses.replace(
+            el, coefficients=curves[0], arc_mean=curves[1][0], arc_cos=curves[1][1],
+            arc_sin=curves[1][2],
+        )  # fmt: skip
+        return spans.tensions(theta, omega, centres)[1][1]
+
+    h = 1e-7
+    ad = float(jax.grad(torque)(0.0))
+    fd = (float(torque(h)) - float(torque(-h))) / (2 * h)
+    assert abs(ad) > 1.0
+    np.testing.assert_allclose(ad, fd, rtol=1e-6)
+
+
+@pytest.mark.slow
+def test_design_gradient_matches_central_differences():
+    """d/dA of the tight span's mean squared tension over half a revolution (A: the crank's
+    2nd-order pitch-curve amplitude, traced through the pitch polygon, the curve fit and
+    the span element), fixed steps: AD = central differences."""
+    base = jc.scenes.drive(
+        CHAIN, teeth=(18, 36), profiles=(oval(), ISO36), speed_rpm=2000, load_torque=20.0,
+        pretension=200.0, fidelity="spans",
+    )  # fmt: skip
+    el = base.elements[0]
+    centres = jnp.stack([s.centre for s in base.sprockets])
+    zero = jnp.zeros(2)
+    tension0 = el.tensions(zero, zero, centres)[0]
+    length = el.geometry(zero, centres)[0]
+    ea, ca = float((el.stiffness * length)[0]), float((el.damping * length)[0])
+    rev = 60.0 / 2000
+
+    def objective(a):
+        spans = jc.scenes.span_element((oval(a), ISO36), centres, el.sense, tension0, ea, ca)
+        scene = eqx.tree_at(lambda s: s.elements, base, (spans,))
+        sol = jc.simulate(scene, rev / 2, n_save=19, dt=2e-5, throw=False)
+        return jnp.mean(sol.link_tension[:, 1] ** 2)
+
+    a0, h = 1e-3, 1e-6
+    ad = float(jax.grad(objective)(a0))  # (not jitted: dt's step count needs a concrete span)
+    f = objective
+    fd = (float(f(a0 + h)) - float(f(a0 - h))) / (2 * h)
+    assert abs(ad) > 0
+    np.testing.assert_allclose(ad, fd, rtol=1e-5)
+
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        (dict(tensioner=jc.scenes.Tensioner(span=0)), "does not model tensioner"),
+        (dict(n_links=80), "does not model n_links"),
+        (dict(gravity=9.81), "does not model gravity"),
+        (dict(centre_distance=0.08), "overlap"),
+        (dict(load_torque=100.0, pretension=10.0), "no static equilibrium"),
+    ],
+)
+def test_what_the_span_model_does_not_model_is_refused(kw, message):
+    with pytest.raises(ValueError, match=message):
+        jc.scenes.drive(CHAIN, teeth=(18, 36), fidelity="spans", **kw)
+
+
+def test_the_engagement_strand_has_no_span_fidelity():
+    with pytest.raises(ValueError, match="no rollers"):
+        jc.scenes.engagement(CHAIN, 18, fidelity="spans")
