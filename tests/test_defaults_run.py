@@ -1,6 +1,7 @@
 """Every scene a builder makes with its defaults runs to the end with ``simulate``'s
-defaults, in both fidelities, at both ends of the speed range (100 and 3000 rpm), over
-two tooth periods of the driver; and so does a drive over three sprockets."""
+defaults, in every fidelity (the span-level chain: drives only), at both ends of the
+speed range (100 and 3000 rpm), over two tooth periods of the driver (a revolution for the
+span-level chain); and so does a drive over three sprockets."""
 
 import pytest
 
@@ -36,3 +37,17 @@ def test_three_sprocket_drive_defaults_run(fidelity):
     )
     sol = jc.simulate(sc, _periods(sc, 1000.0))
     assert sol.ok, sol.message
+
+
+@pytest.mark.parametrize("rpm", [100.0, 3000.0])
+def test_span_level_drive_defaults_run(rpm):
+    """``fidelity="spans"`` (a drive's fidelity only): the defaults over a driver
+    revolution, two and three sprockets."""
+    for kw in ({}, dict(
+        teeth=(21, 42, 42), centres=((0.0, 0.0), (0.05, 0.25), (-0.1, 0.25)),
+        load_torque=(5.0, 5.0),
+    )):  # fmt: skip
+        sc = jc.scenes.drive("06B" if kw else "08B", speed_rpm=rpm, fidelity="spans", **kw)
+        sol = jc.simulate(sc, 60.0 / rpm)
+        assert sol.ok, sol.message
+        assert float(sol.link_tension.min()) > 0
