@@ -13,8 +13,8 @@ centre distance. Both from their static equilibrium, four driver revolutions, th
 three analysed (whole revolutions): mean tight- and slack-span tension, the 2nd driver
 order of the tight span's tension and of the driven sprocket's speed (amplitudes of the
 Fourier component over the window), the lumped chain's 18th (tooth) order beside them,
-and the warm time per revolution (lumped at rtol 1e-4, spans at rtol 1e-6). The lumped
-chain's span tension is the mean over the links wholly inside the span.
+and the warm time per revolution (lumped at rtol 1e-4, spans at rtol 1e-6). Span tensions
+are ``Solution.span_tension`` (the lumped chain's: the mean over the links in the span).
 
 Gradient: d/dA of the squared 2nd-order amplitude of the tight span's tension over the
 second half of the horizon (A the crank's 2nd-order amplitude, traced through the pitch
@@ -63,28 +63,6 @@ def order_amplitude(signal, angle, order):
     return 2 / n * jnp.abs(jnp.sum(signal * jnp.exp(-1j * order * angle)))
 
 
-def lumped_span_tension(scene, sol):
-    """(T, 2) mean tension of the links wholly inside the slack (lower) and tight (upper)
-    span: both ends farther than the tip circle from either axis, between the axes."""
-    x = np.asarray(sol.roller_position)
-    mid = 0.5 * (x + np.roll(x, -1, axis=1))
-    c2 = np.asarray(scene.sprockets[1].centre)
-    reach = [
-        float(s.profile.reach_radius) + 0.5 * scene.sprockets[0].profile.pitch
-        for s in scene.sprockets
-    ]
-    free = (np.hypot(*mid.transpose(2, 0, 1)) > reach[0]) & (
-        np.hypot(mid[..., 0] - c2[0], mid[..., 1] - c2[1]) > reach[1]
-    )
-    free &= (mid[..., 0] > 0) & (mid[..., 0] < c2[0])
-    t = np.asarray(sol.link_tension)
-    out = []
-    for side in (mid[..., 1] < 0, mid[..., 1] > 0):
-        sel = free & side
-        out.append((t * sel).sum(1) / np.maximum(sel.sum(1), 1))
-    return np.stack(out, -1)
-
-
 def compare(rpm: float, amplitude: float, revolutions: int = 4) -> dict:
     oval, round36 = profiles(amplitude)
     rev = 60.0 / rpm
@@ -109,10 +87,7 @@ def compare(rpm: float, amplitude: float, revolutions: int = 4) -> dict:
         sol = jc.simulate(scene, ts[-1], ts=ts, **kw)
         jax.block_until_ready(sol.ts)
         wall = (time.perf_counter() - wall) / revolutions
-        if name == "lumped":
-            tension = lumped_span_tension(scene, sol)
-        else:
-            tension = np.asarray(sol.link_tension)
+        tension = np.asarray(sol.span_tension)  # (T, 2): slack (span 0), tight (span 1)
         angle = np.asarray(sol.sprocket_angle)[:, 0]  # the crank body's angle
         a = angle[win]
         speed = np.asarray(sol.sprocket_speed)[:, 1]

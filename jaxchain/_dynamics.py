@@ -19,7 +19,7 @@ from jaxtyping import Array, Float
 from ._elements.base import Effect
 from ._elements.pairs import chain_tension
 from ._elements.rollers import RollerContacts, roller_contacts as _roller_contacts
-from ._kinematics import points as _points
+from ._kinematics import points as _points, span_tension as _span_tension
 from ._scene import Scene
 
 __all__ = [
@@ -340,6 +340,9 @@ def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
         "sprocket_angle": y.theta,
         "sprocket_torque": fr.sprocket_torque,
     }
+    spans = _span_tension(xr, out["link_tension"], scene)
+    if spans is not None:
+        out["span_tension"] = spans
     for el, e in zip(scene.force_elements, eff, strict=True):
         out.update(el.outputs(t, y, scene, e))
     return out

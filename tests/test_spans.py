@@ -50,7 +50,7 @@ def test_statics_and_speed_ratio_of_round_sprockets(round_drive):
     w = np.asarray(sol.sprocket_speed)
     np.testing.assert_allclose(w[:, 1].mean() / w[:, 0].mean(), 0.5, rtol=1e-5)
     np.testing.assert_allclose(np.asarray(sol.link_tension).mean(0), [slack, tight], rtol=1e-3)
-    assert sol.element_outputs["span_tension"].shape == (201, 2)
+    np.testing.assert_array_equal(sol.span_tension, sol.link_tension)  # (T, 2): the spans
 
 
 def test_torques_are_the_span_lines_moment_arms():
@@ -175,3 +175,16 @@ def test_what_the_span_model_does_not_model_is_refused(kw, message):
 def test_the_engagement_strand_has_no_span_fidelity():
     with pytest.raises(ValueError, match="no rollers"):
         jc.scenes.engagement(CHAIN, 18, fidelity="spans")
+
+
+def test_every_fidelity_gives_span_tensions():
+    """``span_tension`` of the lumped chain's settled start: the free spans carry the
+    statics (tight − slack = load/R₂, their sum the take-up's 2·pretension); a strand has
+    no spans."""
+    from jaxchain._dynamics import outputs
+
+    scene = jc.scenes.drive(CHAIN, teeth=(18, 36), n_links=80, load_torque=20.0, pretension=200.0)
+    out = jax.jit(outputs)(0.0, initial_state(scene), scene)
+    slack, tight = np.asarray(out["span_tension"])
+    np.testing.assert_allclose(tight - slack, 20.0 / float(ISO36.pitch_radius), rtol=0.02)
+    np.testing.assert_allclose(tight + slack, 400.0, rtol=0.02)

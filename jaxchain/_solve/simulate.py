@@ -49,6 +49,9 @@ class Solution(eqx.Module):
             [N·m] (counter-clockwise positive).
         guide_force: (T, G) magnitude of the chain's force on each guide [N]; None
             without shoes.
+        span_tension: (T, J) mean tension of each free span of a closed drive [N], span j
+            from sprocket j to j + 1 (every fidelity; the lumped and clearance chains: the
+            mean over the links in the span); None for a strand.
         element_outputs: the saved outputs of force elements added to the scene
             (:meth:`~jaxchain.Scene.add_elements`), by name, each (T, ...).
 
@@ -91,6 +94,7 @@ class Solution(eqx.Module):
     groups: tuple[tuple[int, ...], ...] | None = eqx.field(static=True, default=None)
     batch_sizes: tuple[int, ...] | None = eqx.field(static=True, default=None)
     n_devices: int | None = eqx.field(static=True, default=None)
+    span_tension: Float[Array, "T J"] | None = None
 
     @property
     def is_ensemble(self) -> bool:
