@@ -13,6 +13,7 @@ from .. import _checks as checks
 from .._chain import ChainSpec
 from .._loads import AbstractLoad
 from .._numerics import is_concrete
+from .._profiles.base import AbstractProfile
 from .._profiles.iso import ToothProfile
 from .build import joint_law, link_stiffness
 
@@ -205,3 +206,24 @@ def check_load_ramp(loads, load_ramp) -> None:
             "load_ramp applies to a number load_torque; a jc.loads load carries its own time "
             "dependence (jc.loads.Ramped(value, duration) ramps one in): leave load_ramp out"
         )
+
+
+def as_profiles(chain: ChainSpec, profiles, teeth: tuple[int, ...], form: str) -> tuple:
+    """One tooth profile per sprocket, checked: any kind, cut for ``chain``, with the
+    sprockets' ``teeth``; None: ISO 606 profiles of ``form``."""
+    n = len(teeth)
+    if profiles is None:
+        profiles = tuple(ToothProfile.iso606(chain, z, form) for z in teeth)
+    what = "tooth profiles (driver, driven)" if n == 2 else "tooth profiles, one per sprocket"
+    profiles = checks.pair("profiles", profiles, n, what)
+    for k, p in enumerate(profiles):
+        checks.instance(
+            f"profiles[{k}]", p, AbstractProfile,
+            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
+        )  # fmt: skip
+        check_profile(chain, p, f"profiles[{k}]")
+    got = tuple(p.teeth for p in profiles)
+    if got != tuple(teeth):
+        shown = "/".join(map(str, got)) if n == 2 else str(got)
+        raise ValueError(f"profiles have {shown} teeth, teeth={teeth}")
+    return tuple(profiles)

@@ -15,7 +15,7 @@ from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._loads import AbstractLoad
-from .._profiles.base import MAX_TEETH, AbstractProfile
+from .._profiles.base import MAX_TEETH
 from .._profiles.freeform import FreeformProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Scene, Sprocket
@@ -23,10 +23,10 @@ from .build import assemble, chain_bodies, roller_law
 from .common import (
     as_gravity,
     as_load,
+    as_profiles,
     check_below_strength,
     check_common,
     check_load_ramp,
-    check_profile,
     contact_slots,
     disc_inertia,
     stretch_of,
@@ -270,19 +270,7 @@ def drive(
         )
     if load_ramp is not None:
         load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
-    if profiles is None:
-        profiles = (ToothProfile.iso606(chain, z1, form), ToothProfile.iso606(chain, z2, form))
-    profiles = checks.pair("profiles", profiles, 2, "tooth profiles (driver, driven)")
-    for k, p in enumerate(profiles):
-        checks.instance(
-            f"profiles[{k}]", p, AbstractProfile,
-            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
-        )  # fmt: skip
-        check_profile(chain, p, f"profiles[{k}]")
-    if (profiles[0].teeth, profiles[1].teeth) != (z1, z2):
-        raise ValueError(
-            f"profiles have {profiles[0].teeth}/{profiles[1].teeth} teeth, teeth={teeth}"
-        )
+    profiles = as_profiles(chain, profiles, (z1, z2), form)
     check_below_strength(
         chain,
         "the tight span's static tension pretension + load_torque/R2",

@@ -14,15 +14,14 @@ from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
 from .._loads import AbstractLoad
-from .._profiles.base import MAX_TEETH, AbstractProfile
-from .._profiles.iso import ToothProfile
+from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law
 from .common import (
     as_loads,
+    as_profiles,
     check_below_strength,
     check_load_ramp,
-    check_profile,
     contact_slots,
     disc_inertia,
     per_driven,
@@ -112,17 +111,7 @@ def loop_drive(
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     if load_ramp is not None:
         load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
-    if profiles is None:
-        profiles = tuple(ToothProfile.iso606(chain, z, form) for z in teeth)
-    profiles = checks.pair("profiles", profiles, n, "tooth profiles, one per sprocket")
-    for k, p in enumerate(profiles):
-        checks.instance(
-            f"profiles[{k}]", p, AbstractProfile,
-            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
-        )  # fmt: skip
-        check_profile(chain, p, f"profiles[{k}]")
-    if tuple(p.teeth for p in profiles) != teeth:
-        raise ValueError(f"profiles have {tuple(p.teeth for p in profiles)} teeth, teeth={teeth}")
+    profiles = as_profiles(chain, profiles, teeth, form)
     radii = [float(p.pitch_radius) for p in profiles]
     guides = _as_guides(guides, n, tensioner)
     if tensioner is not None:

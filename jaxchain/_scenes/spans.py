@@ -15,11 +15,10 @@ from .. import _checks as checks
 from .._chain import ChainSpec
 from .._elements.spans import Spans, pitch_curve_coefficients, scaled_curve
 from .._loads import AbstractLoad
-from .._profiles.base import MAX_TEETH, AbstractProfile
-from .._profiles.iso import ToothProfile
+from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
 from .build import link_stiffness, roller_law
-from .common import as_loads, check_load_ramp, check_profile, disc_inertia, per_driven
+from .common import as_loads, as_profiles, check_load_ramp, disc_inertia, per_driven
 from .loop import as_centres, as_outside
 from .loop_drive import span_tensions
 
@@ -124,17 +123,7 @@ def spans_drive(
     driven_loads, held = as_loads("load_torque", load_torque, speeds)
     check_load_ramp(driven_loads, load_ramp)
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
-    if profiles is None:
-        profiles = tuple(ToothProfile.iso606(chain, z, form) for z in teeth)
-    profiles = checks.pair("profiles", profiles, n, "tooth profiles, one per sprocket")
-    for k, p in enumerate(profiles):
-        checks.instance(
-            f"profiles[{k}]", p, AbstractProfile,
-            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile)",
-        )  # fmt: skip
-        check_profile(chain, p, f"profiles[{k}]")
-    if tuple(p.teeth for p in profiles) != teeth:
-        raise ValueError(f"profiles have {tuple(p.teeth for p in profiles)} teeth, teeth={teeth}")
+    profiles = as_profiles(chain, profiles, teeth, form)
     radii = [p.teeth * float(p.pitch) / (2 * math.pi) for p in profiles]  # z·p/2π
     tension = span_tensions((0.0, *held), radii, pretension, m)
     if tension.min() <= 0:
