@@ -50,6 +50,16 @@ def nearest(rel, slots: int):
     return sel, -jnp.min(neg)
 
 
+def tangent_normal(ca, ra, sa, cb, rb, sb):
+    """World angle [rad] of the outward unit normal n of the chain's straight run from
+    circle a to circle b (centres (…, 2), radii, senses ±1: +1 inside the loop, wrapped
+    counter-clockwise): n·(c_b − c_a) = s_a·r_a − s_b·r_b, n the right-hand normal of the
+    travel direction a → b."""
+    d = cb - ca
+    ratio = (sa * ra - sb * rb) / jnp.sqrt(jnp.sum(d * d, -1))
+    return jnp.arctan2(d[..., 1], d[..., 0]) - jnp.arccos(jnp.clip(ratio, -1.0, 1.0))
+
+
 def span_segments(scene):
     """(J, 2, 2) the free spans of a closed drive as segments between the tangent points of
     consecutive pitch circles (span j from sprocket j to j + 1; a sprocket running
@@ -62,9 +72,7 @@ def span_segments(scene):
     sense = jnp.asarray([float(s.sense) for s in scene.sprockets])
     a = jnp.arange(n)
     b = (a + 1) % n
-    d = c[b] - c[a]
-    ratio = (sense[a] * r[a] - sense[b] * r[b]) / jnp.sqrt(jnp.sum(d * d, -1))
-    beta = jnp.arctan2(d[:, 1], d[:, 0]) - jnp.arccos(jnp.clip(ratio, -1.0, 1.0))
+    beta = tangent_normal(c[a], r[a], sense[a], c[b], r[b], sense[b])
     normal = jnp.stack([jnp.cos(beta), jnp.sin(beta)], -1)
     ends = (c[a] + (sense[a] * r[a])[:, None] * normal, c[b] + (sense[b] * r[b])[:, None] * normal)
     return jnp.stack(ends, 1)

@@ -14,6 +14,7 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec
 from .._elements.spans import Spans, pitch_curve_coefficients, scaled_curve
+from .._kinematics import tangent_normal
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
@@ -26,21 +27,6 @@ __all__ = ["spans_drive", "span_element", "SPAN_ORDER"]
 
 #: harmonics of a pitch curve the span-level chain resolves (at most (z − 1)/2)
 SPAN_ORDER = 6
-
-
-def _outward_normal(ca, ra, sa, cb, rb, sb) -> float:
-    """World angle of the outward unit normal of the common tangent of circles a → b
-    (centres, radii, senses ±1: inside/outside the loop): n·(c_b − c_a) = s_a·r_a − s_b·r_b,
-    n the right-hand normal of the travel direction a → b."""
-    d = np.asarray(cb, float) - np.asarray(ca, float)
-    dist = math.hypot(*d)
-    ratio = (sa * ra - sb * rb) / dist
-    if not abs(ratio) < 1:
-        raise ValueError(
-            f"the sprockets at {tuple(ca)} and {tuple(cb)} overlap: their pitch circles have no "
-            "common tangent; move them apart"
-        )
-    return math.atan2(d[1], d[0]) - math.acos(ratio)
 
 
 def span_element(profiles, centres, sense, tension, axial_stiffness, axial_damping) -> Spans:
@@ -65,10 +51,9 @@ def span_element(profiles, centres, sense, tension, axial_stiffness, axial_dampi
     start = np.arange(n)
     end = (start + 1) % n
     # the outward normal of the tangent of the (effective) pitch circles: the line solve's start
-    radii = arc_mean
-    d = centres[end] - centres[start]
-    ratio = (sense[start] * radii[start] - sense[end] * radii[end]) / jnp.hypot(d[:, 0], d[:, 1])
-    beta = jnp.arctan2(d[:, 1], d[:, 0]) - jnp.arccos(ratio)
+    beta = tangent_normal(
+        centres[start], arc_mean[start], sense[start], centres[end], arc_mean[end], sense[end]
+    )
     probe = Spans(
         start=jnp.asarray(start), end=jnp.asarray(end), sense=sense, coefficients=coef,
         arc_mean=arc_mean, arc_cos=arc_cos, arc_sin=arc_sin, normal_angle=beta,
@@ -165,9 +150,6 @@ def spans_drive(
                     f"{math.dist(centres[a], centres[b]):.4g} m apart, their tips reach "
                     f"{reach[a] + reach[b]:.4g} m; move them apart"
                 )
-    for a in range(n):  # the pitch circles' tangents exist (else: a clear message)
-        b = (a + 1) % n
-        _outward_normal(centres[a], radii[a], sense[a], centres[b], radii[b], sense[b])
     k_link = link_stiffness(chain, float(tension.max()))
     m_link = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
     c_link = 2 * link_damping * math.sqrt(k_link * m_link / 2)
