@@ -25,10 +25,10 @@ curves' leaves. For round sprockets ∂e_j/∂θ_k = ±R_k: the tension differen
 pitch radius. Polygonal action enters only through a non-circular pitch curve; the
 spans carry no mass (their transverse vibration is left out).
 
-The tangent line of span j has unit normal n (pointing away from the sprockets inside
-the loop) with n·c_j + s_j·h_j(s_j·n) = n·c_{j+1} + s_{j+1}·h_{j+1}(s_{j+1}·n), h_k the
-support function of pitch curve k; a few Newton steps from the round sprockets' tangent
-solve it (and the support points), unrolled so their derivatives are exact.
+The tangent line of span j (unit normal n at angle β, pointing away from the sprockets
+inside the loop) touches both pitch curves: n·x_a′(φ_a) = 0, n·x_b′(φ_b) = 0 and
+n·(x_a − x_b) = 0 in (β, φ_a, φ_b). Three Newton steps on that 3×3 system from the round
+sprockets' tangent solve it, unrolled so that their derivatives are exact.
 """
 
 from __future__ import annotations
