@@ -227,3 +227,16 @@ def as_profiles(chain: ChainSpec, profiles, teeth: tuple[int, ...], form: str) -
         shown = "/".join(map(str, got)) if n == 2 else str(got)
         raise ValueError(f"profiles have {shown} teeth, teeth={teeth}")
     return tuple(profiles)
+
+
+def sprocket_inertias(chain: ChainSpec, profiles, driven_inertia) -> tuple[float, ...]:
+    """Every sprocket's moment of inertia [kg·m²]: the driver's a steel disc of its pitch
+    diameter; the driven ones' ``driven_inertia`` (one value for every one, or one per
+    driven sprocket, each > 0), or steel discs when None."""
+    if driven_inertia is None:
+        return tuple(disc_inertia(chain, p) for p in profiles)
+    given = [
+        checks.real(label, v, lo=0.0, lo_open=True, unit="kg·m²")
+        for label, v in per_driven("driven_inertia", driven_inertia, len(profiles) - 1)
+    ]
+    return (disc_inertia(chain, profiles[0]), *given)

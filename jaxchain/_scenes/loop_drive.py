@@ -23,8 +23,7 @@ from .common import (
     check_below_strength,
     check_load_ramp,
     contact_slots,
-    disc_inertia,
-    per_driven,
+    sprocket_inertias,
     stretch_of,
     worn,
 )
@@ -44,14 +43,6 @@ from .shoes import (
 from .statics import equilibrate
 
 __all__ = ["loop_drive", "span_tensions"]
-
-
-def _per_driven(name: str, value, n: int, unit: str, *, lo_open: bool) -> tuple[float, ...]:
-    """A number ≥ 0 for every driven sprocket, or one per driven sprocket (n of them)."""
-    return tuple(
-        checks.real(label, v, lo=0.0, lo_open=lo_open, unit=unit)
-        for label, v in per_driven(name, value, n)
-    )
 
 
 def span_tensions(
@@ -195,11 +186,7 @@ def loop_drive(
             f"sprockets after it numbered one up): {err}; a larger Tensioner.deflection "
             "wraps the chain further round the shoe"
         ) from None
-    if driven_inertia is None:
-        inertias = tuple(disc_inertia(chain, p) for p in profiles)
-    else:
-        given = _per_driven("driven_inertia", driven_inertia, n - 1, "kg·m²", lo_open=True)
-        inertias = (disc_inertia(chain, profiles[0]), *given)
+    inertias = sprocket_inertias(chain, profiles, driven_inertia)
     omega1 = speed_rpm * 2 * math.pi / 60
     bodies = chain_bodies(
         chain,

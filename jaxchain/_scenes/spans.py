@@ -19,7 +19,12 @@ from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
 from .build import link_stiffness, roller_law
-from .common import as_loads, as_profiles, check_load_ramp, disc_inertia, per_driven
+from .common import (
+    as_loads,
+    as_profiles,
+    check_load_ramp,
+    sprocket_inertias,
+)
 from .loop import as_centres, as_outside
 from .loop_drive import span_tensions
 
@@ -116,14 +121,7 @@ def spans_drive(
             f"no static equilibrium: a span would carry {tension.min():.4g} N (the loads need "
             "more tension than pretension gives); raise pretension or lower load_torque"
         )
-    if driven_inertia is None:
-        inertias = tuple(disc_inertia(chain, p) for p in profiles)
-    else:
-        given = [
-            checks.real(label, v, lo=0.0, lo_open=True, unit="kg·m²")
-            for label, v in per_driven("driven_inertia", driven_inertia, n - 1)
-        ]
-        inertias = (disc_inertia(chain, profiles[0]), *given)
+    inertias = sprocket_inertias(chain, profiles, driven_inertia)
     omega1 = speed_rpm * 2 * math.pi / 60
     if load_ramp is None:
         load_ramp = 0.0  # the spans start with the statics' tensions
