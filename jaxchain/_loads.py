@@ -26,7 +26,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ._numerics import is_concrete
 
-__all__ = ["AbstractLoad", "Constant", "Ramped", "Harmonic", "as_load"]
+__all__ = ["AbstractLoad", "Constant", "Ramped", "Harmonic", "camshaft_torque", "as_load"]
 
 
 class AbstractLoad(eqx.Module):
@@ -147,6 +147,79 @@ class Harmonic(AbstractLoad):
     @property
     def mean_torque(self):
         return self.mean
+
+
+def camshaft_torque(
+    *,
+    cylinders: int = 4,
+    valves: int = 2,
+    lift: float = 8.5e-3,
+    duration_deg: float = 240.0,
+    preload: float = 220.0,
+    rate: float = 35e3,
+    mass: float = 0.06,
+    friction: float = 1.5,
+    engine_rpm: float = 0.0,
+    phase_deg: float = 0.0,
+    orders: int = 4,
+) -> Harmonic:
+    """The valve-train torque on one camshaft of an in-line engine with bucket tappets, as
+    a :class:`Harmonic` in the camshaft's own angle.
+
+    Each of ``cylinders`` lobes (evenly spaced, one per cylinder; ``valves`` valves per
+    lobe) lifts its valves by h(φ) = lift·sin²(π·φ/Δ) over a cam angle Δ =
+    ``duration_deg`` against the valve spring (``preload`` [N] at closed, ``rate`` [N/m])
+    and the inertia of the moving mass per valve ``mass`` [kg] (valve, retainer, tappet, a
+    third of the spring) at the engine speed ``engine_rpm`` (the camshaft turns at half
+    it). Its torque is F·dh/dφ, F = preload + rate·h + mass·ω_cam²·h″: positive (resisting)
+    while the valves open, negative (driving) while the springs close them. ``friction``
+    [N·m] is the mean drag (bearings, tappets); ``phase_deg`` turns the lobes (intake
+    against exhaust camshaft). The first ``orders`` harmonics of the lobe frequency are
+    kept: camshaft orders ``cylinders``·k, the engine's 2nd, 4th, 6th, … orders on a
+    four-cylinder four-stroke engine.
+
+    The defaults are those of a 1.6–2.0 L four-cylinder 16-valve petrol engine (lift,
+    opening duration, spring force and moving mass of that class): a torque swinging
+    between about −9 and +12 N·m per camshaft, its 2nd engine order 8–10 N·m (less at
+    speed, where the valves' inertia unloads the springs). These are a model's numbers,
+    not a measured engine's: for a given engine, fit :class:`Harmonic` to its torque.
+    """
+    for name, v, lo in (
+        ("lift", lift, 0.0), ("duration_deg", duration_deg, 0.0), ("rate", rate, -1.0),
+        ("preload", preload, -1.0), ("mass", mass, -1.0), ("engine_rpm", engine_rpm, -1.0),
+    ):  # fmt: skip
+        if not (np.isfinite(v) and v > lo):
+            rng = "> 0" if lo == 0.0 else ">= 0"
+            raise ValueError(f"camshaft_torque: {name} must be finite and {rng}, got {v!r}")
+    if not 0 < duration_deg < 720.0:
+        raise ValueError(
+            f"camshaft_torque: duration_deg (crank degrees) must be in (0, 720), got "
+            f"{duration_deg!r}"
+        )
+    for name, v in (("cylinders", cylinders), ("valves", valves), ("orders", orders)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ValueError(f"camshaft_torque: {name} must be a positive integer, got {v!r}")
+    n = 4096
+    phi = 2 * np.pi * np.arange(n) / n
+    width = np.radians(duration_deg) / 2  # cam angle
+    w_cam = engine_rpm * np.pi / 60  # rad/s: half the crank's
+    tau = np.zeros(n)
+    for c in range(cylinders):
+        x = np.mod(phi - 2 * np.pi * c / cylinders - np.radians(phase_deg), 2 * np.pi)
+        open_ = x < width
+        s = np.pi * x / width
+        h = np.where(open_, lift * np.sin(s) ** 2, 0.0)
+        dh = np.where(open_, lift * np.pi / width * np.sin(2 * s), 0.0)
+        ddh = np.where(open_, 2 * lift * (np.pi / width) ** 2 * np.cos(2 * s), 0.0)
+        force = np.where(open_, preload + rate * h + mass * w_cam**2 * ddh, 0.0)
+        tau += valves * force * dh
+    spec = np.fft.rfft(tau) / n
+    rows = []
+    for k in range(1, orders + 1):
+        order = k * cylinders
+        c = 2 * spec[order]  # τ ⊃ Re(c·e^{i·order·φ}) = |c|·sin(order·φ + arg c + π/2)
+        rows.append((float(order), float(abs(c)), float(np.angle(c) + np.pi / 2)))
+    return Harmonic(friction + spec[0].real, rows)
 
 
 def _finite(load, kind: str, *names: str) -> None:

@@ -21,5 +21,5 @@ from ._elements.pairs import (
 )
 from ._elements.rollers import RollerTeeth as RollerTeeth
 from ._elements.shoes import Shoes as Shoes
-from ._elements.spans import Spans as Spans
+from ._elements.spans import SpanGeometry as SpanGeometry, Spans as Spans
 from ._elements.tensioners import Tensioners as Tensioners

@@ -34,7 +34,7 @@ from ._scenes.shoes import (
     Tensioner as Tensioner,
     shoe_law as shoe_law,
 )
-from ._scenes.spans import span_element as span_element
+from ._scenes.spans import SpanShoe as SpanShoe, span_element as span_element
 from ._scenes.spec import (
     DriveSpec as DriveSpec,
     SprocketSpec as SprocketSpec,

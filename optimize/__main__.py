@@ -100,10 +100,13 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     )
     ap.add_argument(
         "--problem",
-        choices=PROBLEMS,
+        choices=(*PROBLEMS, "timing"),
         default=d.problem,
         help="gentle: free-form asymmetric tooth, worst peak over speeds and wear "
-        "(default); iso: the four ISO 606 parameters inside the standard's box",
+        "(default); iso: the four ISO 606 parameters inside the standard's box; timing: a "
+        "timing drive's non-circular crank sprocket and tensioner against the camshafts' "
+        "torque over 1000-6000 rpm (optimize/timing.py; --iterations, --out, --resume, "
+        "--fast apply)",
     )
     ap.add_argument(
         "--scene",
@@ -236,6 +239,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     ap.add_argument("--quiet", action="store_true", help="no progress output")
     args = ap.parse_args(argv)
     given = frozenset(k for k in FAST if getattr(args, k) is not None)
+    args.given = given
     for k in FAST:
         if getattr(args, k) is None:
             setattr(args, k, getattr(d, k))
@@ -288,6 +292,8 @@ def main(argv=None) -> dict:
     from .run import RunFailed, run
 
     settings, args = parse(argv)
+    if settings.problem == "timing":
+        return _timing(args)
     # several processes (python -m jaxchain.launch -n N -m optimize, or srun): the operating
     # points are shared among them; process 0 reports and writes, all read a checkpoint
     jc.distributed.initialize()
@@ -309,6 +315,28 @@ def main(argv=None) -> dict:
         raise SystemExit(f"python -m optimize: error: {e}{hint}") from None
     except (jc.SolveError, RunFailed) as e:  # a simulation failed: its message says why
         raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
+
+
+def _timing(args) -> dict:
+    """``--problem timing`` (:mod:`optimize.timing`)."""
+    import dataclasses
+
+    from . import timing
+
+    s = timing.TimingSettings()
+    if "iterations" in args.given:
+        s.iterations = args.iterations
+    if args.fast or os.environ.get("JAXCHAIN_FAST") == "1":
+        s = dataclasses.replace(s, **timing.FAST)
+    out = args.out if args.out != Path("results/optimize") else Path("results/optimize_timing")
+    try:
+        s.validate()
+        _writable(out)
+        return timing.run(s, out, resume=args.resume, quiet=args.quiet)
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except ValueError as e:
+        raise SystemExit(f"python -m optimize: error: {e}") from None
 
 
 if __name__ == "__main__":

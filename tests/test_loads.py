@@ -63,6 +63,42 @@ def cam_drive():
     return jc.scenes.drive("08B", load_torque=CAM, **FREE)
 
 
+def test_camshaft_torque_is_the_valve_trains_torque():
+    """``camshaft_torque``: its harmonics are the valve springs' torque F·dh/dφ summed over
+    the lobes (checked here against the spring's potential: the torque is d/dφ of the
+    springs' energy); the springs' work over a turn is zero, so the mean is the friction;
+    the lobe frequency is the 2nd engine order (4th of the camshaft); inertia unloads the
+    springs at speed."""
+    lift, dur, f0, k = 8e-3, 240.0, 200.0, 30e3
+    cam = jc.loads.camshaft_torque(
+        lift=lift, duration_deg=dur, preload=f0, rate=k, mass=0.0, friction=1.2, orders=12
+    )
+    np.testing.assert_allclose(cam.orders, 4.0 * np.arange(1, 13))
+    assert float(cam.mean_torque) == pytest.approx(1.2, abs=1e-4)  # the springs: no net work
+    # the springs' energy E(φ) = Σ lobes (f0·h + k·h²/2) · 2 valves; τ = dE/dφ
+    phi = np.linspace(0.0, 2 * np.pi, 721)
+    width = np.radians(dur) / 2
+
+    def energy(p):
+        x = np.mod(p[:, None] - 2 * np.pi * np.arange(4) / 4, 2 * np.pi)
+        h = np.where(x < width, lift * np.sin(np.pi * x / width) ** 2, 0.0)
+        return 2 * np.sum(f0 * h + 0.5 * k * h * h, axis=1)
+
+    d = 1e-6
+    want = (energy(phi + d) - energy(phi - d)) / (2 * d) + 1.2
+    got = jax.vmap(lambda a: cam.torque(0.0, a, 0.0))(jnp.asarray(phi))
+    # 12 harmonics of a lobe with a jump in its acceleration: within 2 % of the swing
+    assert np.max(np.abs(got - want)) < 0.02 * np.ptp(want)
+    assert 10.0 < np.ptp(want) < 40.0
+    slow = jc.loads.camshaft_torque(engine_rpm=0.0)
+    fast = jc.loads.camshaft_torque(engine_rpm=6000.0)
+    assert float(fast.amplitudes[0]) < float(slow.amplitudes[0])
+    with pytest.raises(ValueError, match="duration_deg"):
+        jc.loads.camshaft_torque(duration_deg=800.0)
+    with pytest.raises(ValueError, match="lift must be finite and > 0"):
+        jc.loads.camshaft_torque(lift=0.0)
+
+
 def test_statics_hold_the_load_at_its_start_value(cam_drive):
     """At the settled start the chain's torque on the driven sprocket equals the harmonic
     load at angle 0: 2 + 1.5 sin 0.4 + 0.5 sin(−1)."""

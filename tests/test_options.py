@@ -93,6 +93,35 @@ def test_fixed_steps_from_dt():
     assert float(jc.SolveOptions().resolve(0.0, 3e-8).dt0) == 3e-8
 
 
+def test_fixed_step_count_with_a_traced_span():
+    """``n_steps``: exactly that many equal steps, the span traced: one compiled solve for
+    every horizon (a jitted objective over speeds), the same answer as ``dt`` where the
+    two give the same steps."""
+    opts = jc.SolveOptions(n_steps=25)
+    assert opts.fixed
+    r = opts.resolve(0.0, jnp.asarray(1e-4))
+    assert isinstance(r.controller, diffrax.ConstantStepSize) and r.max_steps == 25
+    assert isinstance(r.adjoint, jc.StepResidualsAdjoint)
+    scene = jc.scenes.drive("08B", teeth=(18, 36), load_torque=20.0, fidelity="spans")
+    traces = []
+
+    @jax.jit
+    def final_speed(t1):
+        traces.append(1)
+        sol = jc.simulate(scene, t1, ts=jnp.stack([t1]), n_steps=40, throw=False)
+        return sol.span_tension[-1, 1]
+
+    a, b = final_speed(2e-4), final_speed(3e-4)
+    assert len(traces) == 1
+    ref = jc.simulate(scene, 3e-4, ts=[3e-4], dt=3e-4 / 40).span_tension[-1, 1]
+    np.testing.assert_allclose(b, ref, rtol=1e-12)
+    assert float(a) != float(b)
+    with pytest.raises(ValueError, match="give n_steps"):
+        jc.SolveOptions(n_steps=10, dt=1e-6)
+    with pytest.raises(ValueError, match="n_steps must be a positive integer"):
+        jc.SolveOptions(n_steps=0)
+
+
 def test_time_span_and_save_times_are_checked():
     scene = jc.scenes.engagement("08B", 18, n_entry=3, n_exit=2, wrap=9, settle=False)
     for kwargs, match in [

@@ -33,13 +33,15 @@ sprockets' tangent solve it, unrolled so that their derivatives are exact.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
 from .base import AbstractElement, Effect
 
-__all__ = ["Spans", "pitch_curve_coefficients", "scaled_curve"]
+__all__ = ["Spans", "SpanGeometry", "pitch_curve_coefficients", "scaled_curve"]
 
 #: Newton steps of the tangent line and its two tangent points (quadratic convergence
 #: from the round sprockets' line; ample for pitch curves within a few % of round)
@@ -112,10 +114,23 @@ def _ramp_potential(e, w):
     return 0.25 * (e * e + e * s + w * w * jnp.arcsinh(e / w))
 
 
+class SpanGeometry(NamedTuple):
+    """The spans at one instant (:meth:`Spans.geometry`)."""
+
+    length: Array  # (J,) L_j, tangent point to tangent point round any shoe [m]
+    unstretched: Array  # (J,) u_j [m]
+    arms: Array  # (J, 2) the span line's moment arm about its start's and end's axes [m]
+    shoe_lever: Array  # (A,) ∂L/∂ψ of the span under each tensioner shoe [m/rad]
+
+
 class Spans(AbstractElement):
     """The free spans of the span-level chain (module docstring).
 
-    Span j runs from sprocket ``start[j]`` to ``end[j]`` (j + 1 round the loop).
+    Span j runs from sprocket ``start[j]`` to ``end[j]`` (j + 1 round the loop), as one
+    straight segment, or as two with a tensioner's shoe between them: the shoe is a circle
+    of the chain's pitch line on the chain's back, carried by its arm (the scene's
+    ``DriveState.arm``), that the chain slides over (no friction: the span's tension is the
+    same on both sides). Its length counts both segments and the arc wrapped on the shoe.
 
     Attributes:
         start, end: (J,) sprocket indices of each span's ends.
@@ -123,11 +138,18 @@ class Spans(AbstractElement):
         coefficients: (S, 2M + 1) each sprocket's pitch curve, scaled to its perimeter
             (:func:`scaled_curve`).
         arc_mean, arc_cos, arc_sin: (S,), (S, H), (S, H) its arc length's series.
-        normal_angle: (J,) world angle of each span's outward normal at the start (its
+        normal_angle: (G,) world angle of each segment's outward normal at the start (its
             tangent-line solve starts there).
         base: (J,) C_j [m], the spans' unstretched lengths' constants.
         stiffness: (J,) k_j [N/m].
         damping: (J,) c_j [N·s/m].
+        segment_from, segment_to: (G,) each straight segment's end nodes: sprocket k is
+            node k, shoe a node S + a. A span's segments are consecutive.
+        segment_span: (G,) the span each segment belongs to.
+        shoe_radius: (A,) radius of the chain's pitch line round each shoe [m].
+        shoe_pivot: (A, 2) its arm's pivot [m].
+        shoe_offset: (A, 2) the shoe's centre from the pivot at arm angle ``shoe_angle``.
+        shoe_angle: (A,) that arm angle [rad].
     """
 
     start: Int[Array, " J"]
@@ -137,37 +159,60 @@ class Spans(AbstractElement):
     arc_mean: Float[Array, " S"]
     arc_cos: Float[Array, "S H"]
     arc_sin: Float[Array, "S H"]
-    normal_angle: Float[Array, " J"]
+    normal_angle: Float[Array, " G"]
     base: Float[Array, " J"]
     stiffness: Float[Array, " J"]
     damping: Float[Array, " J"]
+    segment_from: Int[Array, " G"]
+    segment_to: Int[Array, " G"]
+    segment_span: Int[Array, " G"]
+    shoe_radius: Float[Array, " A"]
+    shoe_pivot: Float[Array, "A 2"]
+    shoe_offset: Float[Array, "A 2"]
+    shoe_angle: Float[Array, " A"]
 
-    def geometry(self, theta, centres):
-        """Each span at sprocket angles ``theta`` (S,) for axes ``centres`` (S, 2):
-        (L (J,) [m], u (J,) [m], the moment arms of its line about its two sprockets'
-        axes (J, 2) [m], its tangent points (J, 2, 2) [m])."""
+    @property
+    def n_shoes(self) -> int:
+        return int(self.shoe_radius.shape[0])
 
-        def one(ja, jb, beta, base):
-            sa, sb = self.sense[ja], self.sense[jb]
-            ca, cb = self.coefficients[ja], self.coefficients[jb]
-            rot = [
-                (jnp.cos(theta[k]), jnp.sin(theta[k])) for k in (ja, jb)
-            ]  # (cos, sin) of each end's angle
+    def shoe_centres(self, arm):
+        """(A, 2) the shoes' centres at arm angles ``arm`` (A,)."""
+        d = arm - self.shoe_angle
+        c, s = jnp.cos(d), jnp.sin(d)
+        o = self.shoe_offset
+        rotated = jnp.stack([c * o[:, 0] - s * o[:, 1], s * o[:, 0] + c * o[:, 1]], -1)
+        return self.shoe_pivot + rotated
+
+    def segments(self, theta, centres, arm=None):
+        """Every straight segment's tangent line: (length (G,), node-frame angles of its
+        tangent points φ_a, φ_b (G,), its points x_a, x_b (G, 2), unit normal n (G, 2))."""
+        na = self.n_shoes
+        shoe_c = self.shoe_centres(jnp.zeros(0) if arm is None else arm)
+        node_c = jnp.concatenate([centres, shoe_c])
+        node_rot = jnp.concatenate([theta, jnp.zeros(na, theta.dtype)])
+        node_sense = jnp.concatenate([self.sense, -jnp.ones(na, self.sense.dtype)])
+        circle = jnp.zeros((na, self.coefficients.shape[1]), self.coefficients.dtype)
+        node_coef = jnp.concatenate([self.coefficients, circle.at[:, 0].set(self.shoe_radius)])
+
+        def one(ja, jb, beta):
+            sa, sb = node_sense[ja], node_sense[jb]
+            ca, cb = node_coef[ja], node_coef[jb]
+            rot = [(jnp.cos(node_rot[k]), jnp.sin(node_rot[k])) for k in (ja, jb)]
 
             def world(k, v):
                 c, s = rot[k]
                 return jnp.stack([c * v[0] - s * v[1], s * v[0] + c * v[1]])
 
-            # sprocket-frame angles of the tangent points: the world angle of s·n less the
-            # sprocket's (unwrapped) angle, continuous in time
-            pa = beta + jnp.where(sa > 0, 0.0, jnp.pi) - theta[ja]
-            pb = beta + jnp.where(sb > 0, 0.0, jnp.pi) - theta[jb]
+            # node-frame angles of the tangent points: the world angle of s·n less the
+            # node's (unwrapped) angle, continuous in time
+            pa = beta + jnp.where(sa > 0, 0.0, jnp.pi) - node_rot[ja]
+            pb = beta + jnp.where(sb > 0, 0.0, jnp.pi) - node_rot[jb]
             for _ in range(_TANGENT_STEPS):
                 n = jnp.stack([jnp.cos(beta), jnp.sin(beta)])
                 t = jnp.stack([-n[1], n[0]])
                 xa, da, dda = (world(0, v) for v in _curve(ca, pa))
                 xb, db, ddb = (world(1, v) for v in _curve(cb, pb))
-                xa, xb = xa + centres[ja], xb + centres[jb]
+                xa, xb = xa + node_c[ja], xb + node_c[jb]
                 # tangency at both ends and one line: F = (n·x_a', n·x_b', n·(x_a − x_b)) = 0
                 f1, f2, f3 = n @ da, n @ db, n @ (xa - xb)
                 j11, j12 = t @ da, n @ dda
@@ -183,52 +228,112 @@ class Spans(AbstractElement):
                 beta, pa, pb = beta - d_beta, pa - d_pa, pb - d_pb
             n = jnp.stack([jnp.cos(beta), jnp.sin(beta)])
             t = jnp.stack([-n[1], n[0]])  # travel direction, start → end
-            xa = centres[ja] + world(0, _curve(ca, pa)[0])
-            xb = centres[jb] + world(1, _curve(cb, pb)[0])
-            length = t @ (xb - xa)
-            arms = jnp.stack([sa * (n @ (xa - centres[ja])), sb * (n @ (xb - centres[jb]))])
-            u = (
-                base
-                + sb * _arc_length(self.arc_mean[jb], self.arc_cos[jb], self.arc_sin[jb], pb)
-                - sa * _arc_length(self.arc_mean[ja], self.arc_cos[ja], self.arc_sin[ja], pa)
-            )
-            return length, u, arms, jnp.stack([xa, xb])
+            xa = node_c[ja] + world(0, _curve(ca, pa)[0])
+            xb = node_c[jb] + world(1, _curve(cb, pb)[0])
+            return t @ (xb - xa), pa, pb, xa, xb, n
 
-        return jax.vmap(one)(self.start, self.end, self.normal_angle, self.base)
+        return jax.vmap(one)(self.segment_from, self.segment_to, self.normal_angle)
 
-    def stretch(self, theta, centres):
+    def geometry(self, theta, centres, arm=None) -> SpanGeometry:
+        """Each span at sprocket angles ``theta`` (S,), axes ``centres`` (S, 2) and
+        tensioner arm angles ``arm`` (A,) (None without shoes)."""
+        nj = self.start.shape[0]
+        seg_len, pa, pb, xa, xb, n = self.segments(theta, centres, arm)
+        g = jnp.arange(self.segment_span.shape[0])
+        first = jax.ops.segment_min(g, self.segment_span, nj)
+        last = jax.ops.segment_max(g, self.segment_span, nj)
+        length = jax.ops.segment_sum(seg_len, self.segment_span, nj)
+        lever = jnp.zeros(0, theta.dtype)
+        if self.n_shoes:
+            into, out = self._shoe_segments()
+            # the arc wrapped on the shoe (the chain runs clockwise round it)
+            wrap = self.shoe_radius * (pb[into] - pa[out])
+            length = length + jax.ops.segment_sum(wrap, self.segment_span[into], nj)
+            # ∂L/∂c = t_in − t_out (the chain pulls the shoe with T·(t_out − t_in)), and the
+            # shoe's centre turns about the pivot: ∂c/∂ψ = perp(c − pivot)
+            travel = jnp.stack([-n[:, 1], n[:, 0]], -1)
+            r = self.shoe_centres(arm) - self.shoe_pivot
+            perp = jnp.stack([-r[:, 1], r[:, 0]], -1)
+            lever = jnp.sum((travel[into] - travel[out]) * perp, -1)
+        sa, sb = self.sense[self.start], self.sense[self.end]
+        arms = jnp.stack(
+            [
+                sa * jnp.sum(n[first] * (xa[first] - centres[self.start]), -1),
+                sb * jnp.sum(n[last] * (xb[last] - centres[self.end]), -1),
+            ],
+            -1,
+        )
+
+        def arc(k, phi):  # sprocket k's arc length up to φ
+            return jax.vmap(_arc_length)(self.arc_mean[k], self.arc_cos[k], self.arc_sin[k], phi)
+
+        u = self.base + sb * arc(self.end, pb[last]) - sa * arc(self.start, pa[first])
+        return SpanGeometry(length, u, arms, lever)
+
+    def stretch(self, theta, centres, arm=None):
         """(J,) e_j = L_j − u_j [m]."""
-        length, u, _, _ = self.geometry(theta, centres)
-        return length - u
+        geo = self.geometry(theta, centres, arm)
+        return geo.length - geo.unstretched
 
     def _width(self):
         return 1.0 / self.stiffness  # 1 N of tension
 
-    def tensions(self, theta, omega, centres):
-        """(T (J,) [N], torques (S,) [N·m]) at angles ``theta`` and speeds ``omega``.
+    def tensions(self, theta, omega, centres, arm=None, arm_rate=None):
+        """(T (J,) [N], sprocket torques (S,) [N·m], arm torques (A,) [N·m]) at angles
+        ``theta``, speeds ``omega`` and tensioner arm angles and rates.
 
         ∂e_j/∂θ is the span line's moment arm about each end's axis (−s_a·h_a at its
-        start, +s_b·h_b at its end: the chain's force acts along the line), so the
-        torques are T_j·s·h and the stretch rate is their transpose at ω."""
-        length, u, arms, _ = self.geometry(theta, centres)
-        e = length - u
-        ga = -self.sense[self.start] * arms[:, 0]  # ∂e_j/∂θ_start
-        gb = self.sense[self.end] * arms[:, 1]  # ∂e_j/∂θ_end
+        start, +s_b·h_b at its end: the chain's force acts along the line), ∂e_j/∂ψ the
+        shoe's lever; the torques are −T·∂e/∂(θ, ψ) and the stretch rate their transpose
+        at (ω, ψ̇)."""
+        geo = self.geometry(theta, centres, arm)
+        e = geo.length - geo.unstretched
+        ga = -self.sense[self.start] * geo.arms[:, 0]  # ∂e_j/∂θ_start
+        gb = self.sense[self.end] * geo.arms[:, 1]  # ∂e_j/∂θ_end
         rate = ga * omega[self.start] + gb * omega[self.end]
+        if self.n_shoes:
+            span = self._shoe_span()
+            rate = rate.at[span].add(geo.shoe_lever * arm_rate)
         w = self._width()
         opening = 0.5 * (1 + e / jnp.sqrt(e * e + w * w))  # ramp'(e)
         tension = self.stiffness * _ramp(e, w) + self.damping * opening * rate
         torque = jnp.zeros_like(theta).at[self.start].add(-tension * ga)
-        return tension, torque.at[self.end].add(-tension * gb)
+        torque = torque.at[self.end].add(-tension * gb)
+        arm_torque = (
+            -tension[self._shoe_span()] * geo.shoe_lever if self.n_shoes else jnp.zeros(0, e.dtype)
+        )
+        return tension, torque, arm_torque
+
+    def _shoe_segments(self):
+        """(A,), (A,) the segments into and out of each shoe: the one ending and the one
+        starting there."""
+        node = self.sense.shape[0] + jnp.arange(self.n_shoes)
+        into = jnp.argmax(self.segment_to[None, :] == node[:, None], axis=1)
+        out = jnp.argmax(self.segment_from[None, :] == node[:, None], axis=1)
+        return into, out
+
+    def _shoe_span(self):
+        """(A,) the span each shoe presses on."""
+        return self.segment_span[self._shoe_segments()[0]]
 
     def effect(self, t, y, scene, state) -> Effect:
         centres = jnp.stack([s.centre for s in scene.sprockets])
-        tension, torque = self.tensions(y.theta, y.omega, centres)
-        return Effect(body=jnp.zeros_like(y.q), sprocket_torque=torque, tension=tension)
+        tension, torque, arm_torque = self.tensions(
+            y.theta, y.omega, centres, y.arm if self.n_shoes else None, y.arm_rate
+        )
+        if not self.n_shoes:
+            return Effect(body=jnp.zeros_like(y.q), sprocket_torque=torque, tension=tension)
+        return Effect(
+            body=jnp.zeros_like(y.q),
+            sprocket_torque=torque,
+            tension=tension,
+            arm_torque=arm_torque,
+            report={"arm_torque": arm_torque},
+        )
 
     def energy(self, t, y, scene) -> Array:
         centres = jnp.stack([s.centre for s in scene.sprockets])
-        e = self.stretch(y.theta, centres)
+        e = self.stretch(y.theta, centres, y.arm if self.n_shoes else None)
         return jnp.sum(self.stiffness * _ramp_potential(e, self._width()))
 
     def outputs(self, t, y, scene, effect) -> dict[str, Array]:

@@ -132,8 +132,9 @@ def drive(
         fidelity: "lumped" (rollers + elastic links), "clearance" (rigid links,
             pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
             spans as axial springs between the sprockets' pitch curves, for the drive's
-            tensions and speeds over many revolutions; fixed axes, no tensioner, guides or
-            gravity; see :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
+            tensions and speeds over many revolutions; fixed axes, a tensioner's shoe as a
+            frictionless circle the chain slides over, no guides or gravity; see
+            :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
         form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
         profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
         restitution: coefficient of restitution of every contact at ``impact_speed``.
@@ -365,11 +366,10 @@ def _spans(
 ) -> Scene:  # fmt: skip
     """``fidelity="spans"``: what it models, checked, then :func:`.spans.spans_drive`."""
     unsupported = {
-        "tensioner": tensioner is not None,
         "guides": guides is not None and len(guides) > 0,
         "gravity": gravity is not None,
         "elongation": elongation != 0.0,
-        "n_links": n_links is not None,
+        "n_links without a tensioner": n_links is not None and tensioner is None,
     }
     given = [name for name, is_given in unsupported.items() if is_given]
     if given:
@@ -394,5 +394,5 @@ def _spans(
         chain, tuple(teeth), centres, outside=outside, take_up_sprocket=take_up_sprocket,
         speed_rpm=speed_rpm, load_torque=load_torque, pretension=pretension, form=form,
         profiles=profiles, driven_inertia=driven_inertia, load_ramp=load_ramp,
-        link_damping=link_damping,
+        link_damping=link_damping, tensioner=tensioner, n_links=n_links,
     )  # fmt: skip

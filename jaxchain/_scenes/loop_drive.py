@@ -52,9 +52,76 @@ def span_tensions(
     j + 1): each driven sprocket k takes load_k/R_k out of the tension, T_k − T_{k−1} =
     load_k/R_k, and the take-up sprocket m's two spans share 2·pretension, T_{m−1} + T_m =
     2·pretension. ``loads``, ``radii``: (N,) with the driver's entries unused."""
-    steps = np.concatenate([[0.0], np.cumsum(np.asarray(loads[1:]) / np.asarray(radii[1:]))])
+    steps = _load_steps(loads, radii)
     t0 = pretension - 0.5 * (steps[take_up - 1] + steps[take_up])
     return t0 + steps
+
+
+def tensioner_tensions(
+    loads: Sequence[float], radii: Sequence[float], pretension: float, span: int
+) -> np.ndarray:
+    """(N,) static tensions [N] of spans 0 … N − 1 of a loop whose tensioner holds span
+    ``span`` at ``pretension``; each driven sprocket k takes load_k/R_k out of the tension
+    (:func:`span_tensions`)."""
+    steps = _load_steps(loads, radii)
+    return pretension + steps - steps[span]
+
+
+def _load_steps(loads, radii) -> np.ndarray:
+    """(N,) Σ_{k ≤ j} load_k/R_k: what span j gains over span 0."""
+    return np.concatenate([[0.0], np.cumsum(np.asarray(loads[1:]) / np.asarray(radii[1:]))])
+
+
+def tensioned_layout(pitch, lp, r_roller, teeth, centres, outside, profiles, n_links, m, tensioner):
+    """The loop's layout (:func:`loop_layout`) for links of pitch ``lp``, rollers of radius
+    ``r_roller``, on sprockets cut for ``pitch``, with take-up sprocket ``m``; with a
+    ``tensioner`` its shoe is laid out as an idler on the chain's back inserted after
+    sprocket ``tensioner.span``, and is the take-up. Returns (layout, each sprocket's index
+    in the layout, the shoe's index or None, the tensioner's straight span's length or
+    None)."""
+    n = len(teeth)
+    tips = [float(p.tip_diameter) / 2 for p in profiles]
+    real = list(range(n))  # index of each sprocket in the layout
+    lay_teeth, lay_centres, lay_outside = teeth, centres, outside
+    iv = span_length = None
+    if tensioner is not None:
+        jt = int(tensioner.span)
+        # the shoe laid out as an idler on the chain's back, inserted after sprocket jt
+        sense = np.array([-1 if k in as_outside(outside, n) else 1 for k in range(n)])
+        circ = Circles(centres, np.array([chain_pitch_radius(lp, z) for z in teeth]), sense)
+        if not circ.ok:
+            raise ValueError("centres: two consecutive sprockets have no common tangent")
+        z_v = shoe_teeth(tensioner, lp, r_roller)
+        r_v = chain_pitch_radius(lp, z_v)
+        c_v, span_length = idler_centre(tensioner, circ.t_out[jt], circ.t_in[(jt + 1) % n], r_v)
+        iv = jt + 1
+        real = [k if k <= jt else k + 1 for k in range(n)]
+        lay_teeth = (*teeth[:iv], z_v, *teeth[iv:])
+        lay_centres = np.insert(centres, iv, c_v, axis=0)
+        lay_outside = (*[real[k] for k in as_outside(outside, n)], iv)
+        tips = [*tips[:iv], r_v - r_roller, *tips[iv:]]
+        m = iv
+    try:
+        lay = loop_layout(
+            pitch,
+            lay_teeth,
+            lay_centres,
+            lay_outside,
+            n_links=n_links,
+            link_pitch=lp,
+            take_up_sprocket=m,
+            tip_radii=tips,
+            roller_radius=r_roller,
+        )
+    except ValueError as err:
+        if tensioner is None:
+            raise
+        raise ValueError(
+            f"with the tensioner's shoe laid out as idler {iv} on the chain's back (the "
+            f"sprockets after it numbered one up): {err}; a larger Tensioner.deflection "
+            "wraps the chain further round the shoe"
+        ) from None
+    return lay, real, iv, span_length
 
 
 def loop_drive(
@@ -114,9 +181,8 @@ def loop_drive(
             )
         jt = checks.integer("Tensioner.span", tensioner.span, lo=0, hi=n - 1)
         pretension = checks.real("pretension", pretension, lo=0.0, lo_open=True, unit="N")
-        # the tensioner's span carries the pretension; each driven sprocket takes load/R
-        steps = np.concatenate([[0.0], np.cumsum(np.asarray(loads[1:]) / np.asarray(radii[1:]))])
-        tension = pretension + steps - steps[jt]
+        tension = tensioner_tensions(loads, radii, pretension, jt)
+        m = None  # the shoe is the take-up
     else:
         m = n - 1 if take_up_sprocket is None else take_up_sprocket
         m = checks.integer("take_up_sprocket", m, lo=1, hi=n - 1)
@@ -147,45 +213,9 @@ def loop_drive(
     stretch = stretch_of(chain, fidelity, pretension)
     lp = chain.pitch + stretch
     r_roller = chain.roller_diameter / 2
-    tips = [float(p.tip_diameter) / 2 for p in profiles]
-    real = list(range(n))  # index of each sprocket in the layout
-    lay_teeth, lay_centres, lay_outside = teeth, centres, outside
-    if tensioner is not None:
-        # the shoe laid out as an idler on the chain's back, inserted after sprocket jt
-        sense = np.array([-1 if k in as_outside(outside, n) else 1 for k in range(n)])
-        circ = Circles(centres, np.array([chain_pitch_radius(lp, z) for z in teeth]), sense)
-        if not circ.ok:
-            raise ValueError("centres: two consecutive sprockets have no common tangent")
-        z_v = shoe_teeth(tensioner, lp, r_roller)
-        r_v = chain_pitch_radius(lp, z_v)
-        c_v, span_length = idler_centre(tensioner, circ.t_out[jt], circ.t_in[(jt + 1) % n], r_v)
-        iv = jt + 1
-        real = [k if k <= jt else k + 1 for k in range(n)]
-        lay_teeth = (*teeth[:iv], z_v, *teeth[iv:])
-        lay_centres = np.insert(centres, iv, c_v, axis=0)
-        lay_outside = (*[real[k] for k in as_outside(outside, n)], iv)
-        tips = [*tips[:iv], r_v - r_roller, *tips[iv:]]
-        m = iv
-    try:
-        lay = loop_layout(
-            pitch,
-            lay_teeth,
-            lay_centres,
-            lay_outside,
-            n_links=n_links,
-            link_pitch=lp,
-            take_up_sprocket=m,
-            tip_radii=tips,
-            roller_radius=r_roller,
-        )
-    except ValueError as err:
-        if tensioner is None:
-            raise
-        raise ValueError(
-            f"with the tensioner's shoe laid out as idler {iv} on the chain's back (the "
-            f"sprockets after it numbered one up): {err}; a larger Tensioner.deflection "
-            "wraps the chain further round the shoe"
-        ) from None
+    lay, real, iv, span_length = tensioned_layout(
+        pitch, lp, r_roller, teeth, centres, outside, profiles, n_links, m, tensioner
+    )
     inertias = sprocket_inertias(chain, profiles, driven_inertia)
     omega1 = speed_rpm * 2 * math.pi / 60
     bodies = chain_bodies(

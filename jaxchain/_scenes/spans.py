@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import NamedTuple
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+from jax.typing import ArrayLike
 
 from .. import _checks as checks
 from .._chain import ChainSpec
@@ -19,27 +21,38 @@ from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
 from .build import link_stiffness, roller_law
-from .common import (
-    as_loads,
-    as_profiles,
-    check_load_ramp,
-    sprocket_inertias,
-)
+from .common import as_loads, as_profiles, check_load_ramp, sprocket_inertias, stretch_of
 from .loop import as_centres, as_outside
-from .loop_drive import span_tensions
+from .loop_drive import span_tensions, tensioned_layout, tensioner_tensions
+from .shoes import Tensioner, place_tensioner
 
-__all__ = ["spans_drive", "span_element", "SPAN_ORDER"]
+__all__ = ["spans_drive", "span_element", "SpanShoe", "SPAN_ORDER"]
 
 #: harmonics of a pitch curve the span-level chain resolves (at most (z − 1)/2)
 SPAN_ORDER = 6
 
 
-def span_element(profiles, centres, sense, tension, axial_stiffness, axial_damping) -> Spans:
+class SpanShoe(NamedTuple):
+    """A tensioner's shoe in the span-level chain: it presses on span ``span`` from the
+    chain's back; ``radius`` [m] of the chain's pitch line round it, its ``centre`` (2,)
+    [m] when its arm's angle is ``angle`` [rad], the arm turning about ``pivot`` (2,) [m]."""
+
+    span: int
+    radius: float
+    centre: ArrayLike
+    pivot: ArrayLike
+    angle: float
+
+
+def span_element(
+    profiles, centres, sense, tension, axial_stiffness, axial_damping, *, shoe=None
+) -> Spans:
     """The :class:`~jaxchain.elements.Spans` of sprockets with ``profiles`` at ``centres``
     (S, 2) [m], ``sense`` (S,) ±1, whose spans carry ``tension`` (S,) [N] at the sprockets'
-    zero angles; ``axial_stiffness`` EA [N] and ``axial_damping`` [N·s] of the chain (a
-    span of length L: EA/L, damping/L). Every step is an array operation: the element is
-    differentiable in the profiles' leaves (a pitch curve's harmonics, say) and the
+    zero angles (and a tensioner's arm at its ``shoe.angle``); ``axial_stiffness`` EA [N]
+    and ``axial_damping`` [N·s] of the chain (a span of length L: EA/L, damping/L);
+    ``shoe``: a :class:`SpanShoe`, or None. Every step is an array operation: the element
+    is differentiable in the profiles' leaves (a pitch curve's harmonics, say) and the
     tensions, and can be rebuilt inside a traced design objective."""
     n = len(profiles)
     coef = []
@@ -55,22 +68,54 @@ def span_element(profiles, centres, sense, tension, axial_stiffness, axial_dampi
     arc_mean, arc_cos, arc_sin = (jnp.stack(x) for x in zip(*(a for _, a in curves), strict=True))
     start = np.arange(n)
     end = (start + 1) % n
+    # straight segments between nodes (sprocket k is node k, the shoe node n)
+    seg = []
+    for j in range(n):
+        if shoe is not None and j == shoe.span:
+            seg += [(j, n, j), (n, end[j], j)]
+        else:
+            seg.append((j, end[j], j))
+    seg_from, seg_to, seg_span = (np.asarray(x) for x in zip(*seg, strict=True))
+    node_c, node_r, node_s = jnp.asarray(centres), arc_mean, jnp.asarray(sense, dtype=float)
+    if shoe is not None:
+        node_c = jnp.concatenate([node_c, jnp.asarray(shoe.centre, dtype=float)[None]])
+        node_r = jnp.concatenate([node_r, jnp.asarray([shoe.radius], dtype=float)])
+        node_s = jnp.concatenate([node_s, -jnp.ones(1)])
+        shoe_fields = dict(
+            shoe_radius=jnp.asarray([shoe.radius], dtype=float),
+            shoe_pivot=jnp.asarray(shoe.pivot, dtype=float)[None],
+            shoe_offset=(jnp.asarray(shoe.centre, dtype=float) - jnp.asarray(shoe.pivot))[None],
+            shoe_angle=jnp.asarray([shoe.angle], dtype=float),
+        )
+        arm = shoe_fields["shoe_angle"]
+    else:
+        shoe_fields = dict(
+            shoe_radius=jnp.zeros(0), shoe_pivot=jnp.zeros((0, 2)),
+            shoe_offset=jnp.zeros((0, 2)), shoe_angle=jnp.zeros(0),
+        )  # fmt: skip
+        arm = None
     # the outward normal of the tangent of the (effective) pitch circles: the line solve's start
     beta = tangent_normal(
-        centres[start], arc_mean[start], sense[start], centres[end], arc_mean[end], sense[end]
-    )
-    probe = Spans(
-        start=jnp.asarray(start), end=jnp.asarray(end), sense=sense, coefficients=coef,
-        arc_mean=arc_mean, arc_cos=arc_cos, arc_sin=arc_sin, normal_angle=beta,
-        base=jnp.zeros(n), stiffness=jnp.ones(n), damping=jnp.zeros(n),
+        node_c[seg_from], node_r[seg_from], node_s[seg_from],
+        node_c[seg_to], node_r[seg_to], node_s[seg_to],
     )  # fmt: skip
-    length, u0, _, _ = probe.geometry(jnp.zeros(n), centres)
-    stiffness = axial_stiffness / length
+    probe = Spans(
+        start=jnp.asarray(start), end=jnp.asarray(end), sense=jnp.asarray(sense, dtype=float),
+        coefficients=coef, arc_mean=arc_mean, arc_cos=arc_cos, arc_sin=arc_sin,
+        normal_angle=beta, base=jnp.zeros(n), stiffness=jnp.ones(n), damping=jnp.zeros(n),
+        segment_from=jnp.asarray(seg_from), segment_to=jnp.asarray(seg_to),
+        segment_span=jnp.asarray(seg_span), **shoe_fields,
+    )  # fmt: skip
+    geo = probe.geometry(jnp.zeros(n), jnp.asarray(centres), arm)
+    stiffness = axial_stiffness / geo.length
     # start stretch: the tension through the smooth ramp's inverse (ramp(e) = T/k)
     x, w = tension / stiffness, 1.0 / stiffness
     stretch = x - w * w / (4 * x)
     return dataclasses.replace(
-        probe, base=length - stretch - u0, stiffness=stiffness, damping=axial_damping / length
+        probe,
+        base=geo.length - stretch - geo.unstretched,
+        stiffness=stiffness,
+        damping=axial_damping / geo.length,
     )
 
 
@@ -93,17 +138,25 @@ def spans_drive(
     driven_inertia,
     load_ramp: float | None,
     link_damping: float,
+    tensioner: Tensioner | None = None,
+    n_links: int | None = None,
 ) -> Scene:
     """The span-level drive over N sprockets (see :func:`~jaxchain.scenes.drive`): the
     sprockets at ``centres`` (the driver first, the loop counter-clockwise, ``outside``
     ones on the chain's back), the spans' start tensions those of the statics with
-    ``pretension`` shared by the take-up sprocket's two spans and every driven sprocket's
-    load carried."""
+    ``pretension`` shared by the take-up sprocket's two spans (or carried by the
+    ``tensioner``'s span) and every driven sprocket's load carried."""
     n = len(teeth)
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
     centres = as_centres(centres, n)
     sense = np.ones(n)
     sense[list(as_outside(outside, n))] = -1.0
+    if tensioner is not None and take_up_sprocket is not None:
+        raise ValueError(
+            "take_up_sprocket: a drive with a tensioner needs no take-up sprocket (the "
+            "tensioner sets the tension and the sprockets stay where given); give one or the "
+            "other"
+        )
     m = (
         n - 1
         if take_up_sprocket is None
@@ -115,7 +168,12 @@ def spans_drive(
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     profiles = as_profiles(chain, profiles, teeth, form)
     radii = [p.teeth * float(p.pitch) / (2 * math.pi) for p in profiles]  # z·p/2π
-    tension = span_tensions((0.0, *held), radii, pretension, m)
+    if tensioner is None:
+        tension = span_tensions((0.0, *held), radii, pretension, m)
+    else:
+        jt = checks.integer("Tensioner.span", tensioner.span, lo=0, hi=n - 1)
+        pretension = checks.real("pretension", pretension, lo=0.0, lo_open=True, unit="N")
+        tension = tensioner_tensions((0.0, *held), radii, pretension, jt)
     if tension.min() <= 0:
         raise ValueError(
             f"no static equilibrium: a span would carry {tension.min():.4g} N (the loads need "
@@ -151,9 +209,14 @@ def spans_drive(
     k_link = link_stiffness(chain, float(tension.max()))
     m_link = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
     c_link = 2 * link_damping * math.sqrt(k_link * m_link / 2)
+    shoe = arms = None
+    if tensioner is not None:
+        shoe, arms = _place_shoe(
+            tensioner, chain, centres, teeth, outside, profiles, n_links, tension
+        )
     spans = _span_element(
         tuple(profiles), jnp.asarray(np.stack(centres)), jnp.asarray(sense),
-        jnp.asarray(tension), k_link * chain.pitch, c_link * chain.pitch,
+        jnp.asarray(tension), k_link * chain.pitch, c_link * chain.pitch, shoe=shoe,
     )  # fmt: skip
     empty2, empty3 = jnp.zeros((0, 2)), jnp.zeros((0, 3))
     return Scene(
@@ -175,5 +238,27 @@ def spans_drive(
         horizon=jnp.asarray(math.inf),
         tensile_strength=jnp.asarray(chain.tensile_strength, dtype=float),
         fidelity="spans",
+        tensioners=arms,
         elements=(spans,),
     )
+
+
+def _place_shoe(tensioner, chain, centres, teeth, outside, profiles, n_links, tension):
+    """(SpanShoe, Tensioners) of ``tensioner`` laid out as in the lumped chain
+    (:func:`.loop_drive.tensioned_layout`, ``n_links`` setting how far it pushes), its arm
+    at the layout's angle."""
+    stretch = stretch_of(chain, "lumped", float(tension[int(tensioner.span)]))
+    lp = chain.pitch + stretch
+    lay, _, iv, span_length = tensioned_layout(
+        chain.pitch, lp, chain.roller_diameter / 2, teeth, np.asarray(centres), outside,
+        profiles, n_links, None, tensioner,
+    )  # fmt: skip
+    arms, _ = place_tensioner(
+        tensioner, lay, iv, span_length, float(tension[int(tensioner.span)]), chain
+    )
+    r_v = lay.link_pitch / (2 * math.sin(math.pi / int(lay.teeth[iv])))
+    shoe = SpanShoe(
+        int(tensioner.span), r_v, lay.centres[iv], np.asarray(arms.pivot[0]),
+        float(arms.angle0[0]),
+    )  # fmt: skip
+    return shoe, arms

@@ -73,6 +73,10 @@ class SolveOptions(eqx.Module):
         allow_float32: accept a float32 scene (jax_enable_x64 off); otherwise its solve is
             reported as ``float32_state`` (its forces can be wrong while it looks
             successful).
+        n_steps: fixed steps, exactly ``n_steps`` equal ones over [t0, t1], differentiated
+            as with ``dt``. The step count is static and the span is not: ``t1`` (and
+            ``ts``) may be traced, so a jitted or vmapped objective over several speeds and
+            horizons compiles one solve.
     """
 
     solver: diffrax.AbstractSolver | None = None
@@ -85,6 +89,7 @@ class SolveOptions(eqx.Module):
     adjoint: diffrax.AbstractAdjoint | None = None
     progress: bool = False
     allow_float32: bool = False
+    n_steps: int | None = None
 
     def __check_init__(self):
         if self.solver is not None and not isinstance(self.solver, diffrax.AbstractSolver):
@@ -129,6 +134,16 @@ class SolveOptions(eqx.Module):
                     "give dt (fixed steps) or dt0/stepsize_controller, not both: dt sets the "
                     "step count and the constant step-size controller itself"
                 )
+        if self.n_steps is not None:
+            if isinstance(self.n_steps, bool) or not isinstance(self.n_steps, (int, np.integer)):
+                raise ValueError(f"n_steps must be a positive integer, got {self.n_steps!r}")
+            if self.n_steps < 1:
+                raise ValueError(f"n_steps must be a positive integer, got {self.n_steps!r}")
+            if self.dt is not None or self.dt0 is not None or self.stepsize_controller is not None:
+                raise ValueError(
+                    "give n_steps (fixed steps) or dt/dt0/stepsize_controller, not both: "
+                    "n_steps sets the step count and the constant step-size controller itself"
+                )
         if isinstance(c, diffrax.ConstantStepSize) and self.dt0 is None:
             raise ValueError("a fixed step (ConstantStepSize) needs dt0 > 0 [s] (or use dt=)")
         for name in ("progress", "allow_float32"):
@@ -137,8 +152,13 @@ class SolveOptions(eqx.Module):
 
     @property
     def fixed(self) -> bool:
-        """Whether the steps are fixed (``dt``, or a constant step-size controller)."""
-        return self.dt is not None or isinstance(self.stepsize_controller, diffrax.ConstantStepSize)
+        """Whether the steps are fixed (``dt``, ``n_steps``, or a constant step-size
+        controller)."""
+        return (
+            self.dt is not None
+            or self.n_steps is not None
+            or isinstance(self.stepsize_controller, diffrax.ConstantStepSize)
+        )
 
     def steps(self, t0: float, t1: float) -> int:
         """Number of fixed steps ``dt`` gives over [t0, t1] (static)."""
@@ -153,6 +173,10 @@ class SolveOptions(eqx.Module):
             if not is_concrete(t0, t1):
                 raise ValueError("dt (fixed steps) needs a concrete time span: its step count")
             n = self.steps(t0, t1)
+            controller, dt0, max_steps = diffrax.ConstantStepSize(), (t1 - t0) / n, n
+            adjoint = adjoint or StepResidualsAdjoint()
+        elif self.n_steps is not None:
+            n = int(self.n_steps)
             controller, dt0, max_steps = diffrax.ConstantStepSize(), (t1 - t0) / n, n
             adjoint = adjoint or StepResidualsAdjoint()
         else:
