@@ -80,7 +80,7 @@ class TimingSettings:
     revolutions: int = REVOLUTIONS
     window: int = WINDOW
     steps: int = STEPS
-    iterations: int = 40
+    iterations: int = 30
     learning_rate: float = 0.1
     cma_seed: int = 1
     remeasure_speeds: tuple[float, ...] = REMEASURE_SPEEDS
