@@ -1,0 +1,230 @@
+"""Generate ``notebooks/07_noncircular_sprocket.ipynb`` (run from anywhere):
+
+    .venv/bin/python notebooks/_make_07_noncircular_sprocket.py
+
+The notebook walks through the timing drive's design of ``python -m optimize --problem
+timing``: the camshafts' torque, the span-level chain, the designed crank sprocket's pitch
+curve and drawing, the tight span's tension spectrum and the cam timing error before and
+after (live span-level solves), and the committed run's re-measurement on the lumped
+chain. ``JAXCHAIN_FAST=1`` (as the test suite sets it) shortens the live solves. This
+script writes it without outputs;
+
+    .venv/bin/python notebooks/_make_all.py --execute 07
+
+executes it in full mode, storing the outputs (the form it is committed in).
+"""
+
+from nbformat.v4 import new_code_cell, new_markdown_cell
+
+from _write import BENCHMARKS, CACHE, X64, write
+
+CELLS = [
+    new_markdown_cell(
+        """# A non-circular crank sprocket against the camshafts' torque
+
+An engine's camshafts take their valve springs' torque from the timing chain: on a
+four-cylinder engine it swings at the **2nd engine order** (two lobe events per crank
+revolution on each camshaft). The tight span carries that swing, and the cams lag and
+lead the crank by it (the cam timing error).
+
+A crank sprocket whose pitch radius varies at the 2nd order (an oval) lengthens and
+shortens the spans twice a revolution. Set against the cam torque, the chain's own
+geometry can cancel much of the tension swing: production toothed-belt drives have used
+such sprockets since 2004 (30–40 % lower belt forces reported).
+
+This notebook follows `python -m optimize --problem timing` (`optimize/timing.py`):
+
+1. the camshafts' torque (`jc.loads.camshaft_torque`);
+2. the span-level chain (`fidelity="spans"`), the design model: cheap and smooth over
+   many revolutions;
+3. the designed crank sprocket: its pitch curve and its drawing;
+4. the tight span's tension and its spectrum, and the cam timing error, before and after;
+5. the re-measurement on the lumped polygonal chain, and what limits the gain.
+
+`JAXCHAIN_FAST=1` (set by the test suite) shortens the live solves."""
+    ),
+    new_code_cell(
+        """import json
+import os
+import sys
+from pathlib import Path
+
+import jax
+
+"""
+        + X64
+        + """import matplotlib.pyplot as plt
+import numpy as np
+
+import jaxchain as jc
+"""
+        + CACHE
+        + BENCHMARKS
+        + """from optimize import timing
+
+FAST = os.environ.get("JAXCHAIN_FAST") == "1"
+RESULTS = root / "benchmarks" / "results" / "optimize_timing"
+run = json.loads((RESULTS / "results.json").read_text())
+print("fast mode" if FAST else "full mode")"""
+    ),
+    new_markdown_cell(
+        """## 1. The camshafts' torque
+
+`jc.loads.camshaft_torque` models one camshaft of an in-line four-cylinder engine with
+bucket tappets: each lobe lifts its two valves against their springs (preload and rate)
+and the inertia of the moving parts, and the torque is F·dh/dφ. It returns a
+`jc.loads.Harmonic` in the camshaft's angle: the lobe frequency (the camshaft's 4th order,
+the engine's 2nd) and its multiples. The defaults are those of a 1.6–2.0 L 16-valve
+engine; for a measured engine, fit `jc.loads.Harmonic` to its torque instead. The exhaust
+camshaft's lobes come 110° of camshaft angle after the intake's."""
+    ),
+    new_code_cell(
+        """phi = np.linspace(0.0, 2 * np.pi, 721)
+fig, ax = plt.subplots(1, 2, figsize=(12, 3.8))
+for rpm in (1000.0, 6000.0):
+    intake, exhaust = timing.cam_loads(rpm)
+    for name, load in (("intake", intake), ("exhaust", exhaust)):
+        tau = jax.vmap(lambda a: load.torque(0.0, a, 0.0))(phi)
+        ax[0].plot(np.degrees(phi), tau, label=f"{name}, {rpm:.0f} rpm")
+    ax[1].bar(
+        np.asarray(intake.orders) / 2 + (0.15 if rpm > 2000 else -0.15),
+        np.asarray(intake.amplitudes), width=0.3, label=f"{rpm:.0f} rpm",
+    )
+ax[0].set(xlabel="camshaft angle [deg]", ylabel="torque [N·m]", title="one camshaft")
+ax[0].legend(fontsize=7)
+ax[1].set(xlabel="engine order", ylabel="amplitude [N·m]", title="its engine orders")
+ax[1].legend()
+plt.show()
+print(f"mean torque (friction) {float(intake.mean):.2f} N·m per camshaft")"""
+    ),
+    new_markdown_cell(
+        """## 2. The span-level chain
+
+The drive is notebook 05's (06B chain, a 21-tooth crank sprocket, two 42-tooth camshaft
+sprockets, a tensioner on the slack span) without its guide, with the camshafts'
+torque and a hydraulic tensioner's spring and damper. `fidelity="spans"` models it
+without rollers: the sprockets turn on their pitch curves, each free span is an axial
+spring-damper between its tangent points, and the tensioner's shoe is a circle on the
+chain's back, carried by its arm, that the chain slides over. It costs a few hundred
+microseconds of vector field per step instead of a polygonal chain's hundreds of
+rollers, so a design can look at whole revolutions at every speed of a band.
+
+`timing.build(rpm, fidelity, u)` builds the drive at design coordinates `u`
+(`u = 0`: the circular crank and the baseline tensioner)."""
+    ),
+    new_code_cell(
+        """u_design = np.asarray(run["runs"][0 if run["summary"]["method"] == "Adam" else 1]["u"])
+revolutions = 3 if FAST else 6
+saves = 120
+
+
+def solve(u, rpm):
+    scene = timing.build(rpm, "spans", u)
+    rev = 60.0 / rpm
+    ts = (revolutions - 2 + np.arange(2 * saves) / saves) * rev  # the last two revolutions
+    return jc.simulate(scene, revolutions * rev, ts=ts), scene
+
+
+rpm = 6000.0 if FAST else 2000.0
+before, scene = solve(np.zeros(6), rpm)
+after, _ = solve(u_design, rpm)
+print(f"{rpm:.0f} rpm: baseline {before.message or 'ok'}, design {after.message or 'ok'}")
+print("tensioner", run["summary"]["design"])"""
+    ),
+    new_markdown_cell(
+        """## 3. The designed crank sprocket
+
+The design moves the seats of the 21-tooth crank sprocket onto an oval (2nd order, with a
+little 4th): the seat radius over the seat angle, and the sprocket's outline with its
+departure from the ISO 606 sprocket exaggerated. Every chord between neighbouring seats
+stays exactly one chain pitch (`jc.FreeformProfile.noncircular` solves the polygon), so
+the chain fits every gap. The drawing is in `benchmarks/results/optimize_timing/`
+(`sprocket.dxf`, `profile.json` for `jc.load_profile`)."""
+    ),
+    new_code_cell(
+        """designed = jc.load_profile(RESULTS / "profile.json")
+iso21 = timing.iso_profiles()[0]
+radius, angle = (np.asarray(x) for x in designed.pitch_polar())
+order = np.argsort(angle)
+fig, ax = plt.subplots(1, 2, figsize=(12, 5))
+ax[0].plot(np.degrees(angle[order]), 1e3 * (radius[order] - float(iso21.pitch_radius)), "o-")
+ax[0].set(xlabel="seat angle [deg]", ylabel="seat radius − ISO pitch radius [mm]",
+          title="pitch curve (seat centres)")
+chords = np.linalg.norm(np.diff(np.asarray(designed.pitch_points()), axis=0, append=np.asarray(designed.pitch_points())[:1]), axis=1)
+print(f"chords: {1e3 * chords.min():.9f} … {1e3 * chords.max():.9f} mm (pitch {1e3 * float(designed.pitch):.3f} mm)")
+jc.plot_sprocket(designed, reference=iso21, ax=ax[1])
+plt.show()"""
+    ),
+    new_markdown_cell(
+        """## 4. Tension and timing error, before and after
+
+The tight span (span 2, from the second camshaft back into the crank) over the last two
+revolutions, its spectrum in engine orders, and each camshaft's timing error (its angle
+minus half the crank's, in crank degrees)."""
+    ),
+    new_code_cell(
+        """def orders(signal, crank, top=8):
+    k = np.arange(top + 1)
+    return k, 2 / len(signal) * np.abs(np.exp(-1j * np.outer(k, crank)) @ signal)
+
+
+fig, ax = plt.subplots(1, 3, figsize=(15, 4))
+for name, sol in (("circular crank", before), ("designed crank", after)):
+    crank = np.asarray(sol.sprocket_angle)[:, 0]
+    tight = np.asarray(sol.span_tension)[:, 2]
+    deg = np.degrees(crank - crank[0])
+    ax[0].plot(deg, tight, label=name)
+    k, amp = orders(tight - tight.mean(), crank)
+    ax[1].bar(k + (-0.2 if name.startswith("circ") else 0.2), amp, width=0.4, label=name)
+    cams = np.asarray(sol.sprocket_angle)[:, 1:]
+    error = np.degrees(2 * np.abs(cams) - crank[:, None])
+    ax[2].plot(deg, error[:, 1] - error[:, 1].mean(), label=f"{name}, intake")
+    print(f"{name}: tight span {tight.min():.0f}…{tight.max():.0f} N (p2p {np.ptp(tight):.0f} N), "
+          f"timing error p2p {np.ptp(error[:, 0]):.2f} / {np.ptp(error[:, 1]):.2f} deg")
+ax[0].set(xlabel="crank angle [deg]", ylabel="tight-span tension [N]", title=f"{rpm:.0f} rpm")
+ax[1].set(xlabel="engine order", ylabel="amplitude [N]", title="tight-span spectrum")
+ax[2].set(xlabel="crank angle [deg]", ylabel="timing error [crank deg]", title="intake camshaft")
+for a in ax:
+    a.legend(fontsize=7)
+plt.show()"""
+    ),
+    new_markdown_cell(
+        """## 5. Re-measured on the lumped chain
+
+The committed run re-measured the baseline and the design on the lumped polygonal chain
+(every roller a body, links as springs, the tensioner's shoe in contact with the rollers):
+settled starts, adaptive steps, whole revolutions after the start. Its `summary` follows
+the default problem's schema (`improvement`: the re-measured fraction)."""
+    ),
+    new_code_cell(
+        """s = run["summary"]
+print(f"worst tight-span p2p, lumped chain: {s['baseline_value']:.0f} → {s['optimized_value']:.0f} N "
+      f"({100 * s['improvement']:.0f} % lower); 2nd order {s['order2']['baseline_value']:.0f} → "
+      f"{s['order2']['optimized_value']:.0f} N; method {s['method']}")
+print(f"span model: {s['span_model']['baseline_value']:.0f} → {s['span_model']['optimized_value']:.0f} N; "
+      f"round crank with the designed tensioner {s['span_model']['round_crank_designed_tensioner_value']:.0f} N")
+print(f"largest timing error {s['timing_error_deg']:.2f} deg (limit {s['timing_limit_deg']})")
+print(" rpm   baseline p2p  design p2p   baseline 2nd  design 2nd")
+for b, d in zip(run["lumped"]["baseline"], run["lumped"]["optimized"]):
+    print(f"{b['rpm']:5.0f} {b['p2p']:12.0f} {d['p2p']:11.0f} {b['orders'][0]:13.0f} {d['orders'][0]:11.0f}")
+from IPython.display import Image
+Image(filename=str(RESULTS / "timing.png"))"""
+    ),
+    new_markdown_cell(
+        """At low engine speed the camshafts' torque is carried quasi-statically: the tight span
+must hold the slack span's tension plus the cams' torque over their pitch radius whatever
+the crank's shape, so the oval can only trade tension between the spans through the
+tensioner. The gain grows with speed, where the cams' speed fluctuation (their inertia)
+and the tensioner's damper let the oval's geometry work against the torque; the lumped
+chain adds its own polygonal and span-vibration content (4th, 6th, 21st orders) that no
+pitch curve of order 2 reaches."""
+    ),
+]
+
+
+def main():
+    return write(CELLS, "07_noncircular_sprocket.ipynb")
+
+
+if __name__ == "__main__":
+    main()
