@@ -42,11 +42,12 @@ def test_three_sprocket_drive_defaults_run(fidelity):
 @pytest.mark.parametrize("rpm", [100.0, 3000.0])
 def test_span_level_drive_defaults_run(rpm):
     """``fidelity="spans"`` (a drive's fidelity only): the defaults over a driver
-    revolution, two and three sprockets."""
-    for kw in ({}, dict(
+    revolution, two and three sprockets, and with a default tensioner."""
+    three = dict(
         teeth=(21, 42, 42), centres=((0.0, 0.0), (0.05, 0.25), (-0.1, 0.25)),
         load_torque=(5.0, 5.0),
-    )):  # fmt: skip
+    )  # fmt: skip
+    for kw in ({}, three, three | dict(tensioner=jc.scenes.Tensioner())):
         sc = jc.scenes.drive("06B" if kw else "08B", speed_rpm=rpm, fidelity="spans", **kw)
         sol = jc.simulate(sc, 60.0 / rpm)
         assert sol.ok, sol.message
