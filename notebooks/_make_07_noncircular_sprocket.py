@@ -86,7 +86,7 @@ fig, ax = plt.subplots(1, 2, figsize=(12, 3.8))
 for rpm in (1000.0, 6000.0):
     intake, exhaust = timing.cam_loads(rpm)
     for name, load in (("intake", intake), ("exhaust", exhaust)):
-        tau = jax.vmap(lambda a: load.torque(0.0, a, 0.0))(phi)
+        tau = jax.vmap(load.torque, in_axes=(None, 0, None))(0.0, phi, 0.0)
         ax[0].plot(np.degrees(phi), tau, label=f"{name}, {rpm:.0f} rpm")
     ax[1].bar(
         np.asarray(intake.orders) / 2 + (0.15 if rpm > 2000 else -0.15),
