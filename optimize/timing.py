@@ -30,8 +30,8 @@ Every speed's solve takes the same number of fixed steps over its own horizon
 
 Adam (optax, reverse-mode gradients through the solves) runs against CMA-ES (the ``cma``
 package) at the same budget of simulation-equivalents (a value and gradient counts as the
-measured time ratio of a value and gradient to a value); the better design is delivered
-and re-measured on the lumped chain (settled starts, :data:`REMEASURE_SPEEDS`,
+measured time ratio of a value and gradient to a value); the design with the lower objective
+is delivered and re-measured on the lumped chain (settled starts, :data:`REMEASURE_SPEEDS`,
 :data:`REMEASURE_SETTLE` + :data:`REMEASURE_REVOLUTIONS` revolutions, adaptive steps),
 against the circular crank with the baseline tensioner.
 """

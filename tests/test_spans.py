@@ -167,9 +167,10 @@ def test_the_span_element_is_differentiable_in_the_pitch_curve():
 
 @pytest.mark.slow
 def test_design_gradient_matches_central_differences():
-    """d/dA of the tight span's mean squared tension over half a revolution (A: the crank's
-    2nd-order pitch-curve amplitude, traced through the pitch polygon, the curve fit and
-    the span element), fixed steps: AD = central differences."""
+    """d/dA of the tight span's mean squared tension over the last 5 of 10 revolutions (A:
+    the crank's 2nd-order pitch-curve amplitude, traced through the pitch polygon, the
+    curve fit and the span element), fixed steps (``n_steps``: the objective is jitted):
+    AD = central differences."""
     base = jc.scenes.drive(
         CHAIN, teeth=(18, 36), profiles=(oval(), ISO36), speed_rpm=2000, load_torque=20.0,
         pretension=200.0, fidelity="spans",
@@ -181,19 +182,22 @@ def test_design_gradient_matches_central_differences():
     length = el.geometry(zero, centres)[0]
     ea, ca = float((el.stiffness * length)[0]), float((el.damping * length)[0])
     rev = 60.0 / 2000
+    ts = rev * (5 + jnp.arange(180) / 36)
 
+    @jax.jit
     def objective(a):
         spans = jc.scenes.span_element((oval(a), ISO36), centres, el.sense, tension0, ea, ca)
         scene = eqx.tree_at(lambda s: s.elements, base, (spans,))
-        sol = jc.simulate(scene, rev / 2, n_save=19, dt=2e-5, throw=False)
+        sol = jc.simulate(scene, 10 * rev, ts=ts, n_steps=15_000, throw=False)
         return jnp.mean(sol.link_tension[:, 1] ** 2)
 
-    a0, h = 1e-3, 1e-6
-    ad = float(jax.grad(objective)(a0))  # (not jitted: dt's step count needs a concrete span)
-    f = objective
-    fd = (float(f(a0 + h)) - float(f(a0 - h))) / (2 * h)
+    # over 10 revolutions J bends on the scale of 1 % of A: h = 1e-3·A leaves central
+    # differences 8e-4 off, 1e-5·A 2e-6 off (measured)
+    a0, h = 1e-3, 1e-8
+    ad = float(jax.grad(objective)(a0))
+    fd = (float(objective(a0 + h)) - float(objective(a0 - h))) / (2 * h)
     assert abs(ad) > 0
-    np.testing.assert_allclose(ad, fd, rtol=1e-5)
+    np.testing.assert_allclose(ad, fd, rtol=2e-5)
 
 
 @pytest.mark.parametrize(
