@@ -90,7 +90,9 @@ for rpm in (1000.0, 6000.0):
         ax[0].plot(np.degrees(phi), tau, label=f"{name}, {rpm:.0f} rpm")
     ax[1].bar(
         np.asarray(intake.orders) / 2 + (0.15 if rpm > 2000 else -0.15),
-        np.asarray(intake.amplitudes), width=0.3, label=f"{rpm:.0f} rpm",
+        np.asarray(intake.amplitudes),
+        width=0.3,
+        label=f"{rpm:.0f} rpm",
     )
 ax[0].set(xlabel="camshaft angle [deg]", ylabel="torque [N·m]", title="one camshaft")
 ax[0].legend(fontsize=7)
@@ -148,10 +150,15 @@ radius, angle = (np.asarray(x) for x in designed.pitch_polar())
 order = np.argsort(angle)
 fig, ax = plt.subplots(1, 2, figsize=(12, 5))
 ax[0].plot(np.degrees(angle[order]), 1e3 * (radius[order] - float(iso21.pitch_radius)), "o-")
-ax[0].set(xlabel="seat angle [deg]", ylabel="seat radius − ISO pitch radius [mm]",
-          title="pitch curve (seat centres)")
-chords = np.linalg.norm(np.diff(np.asarray(designed.pitch_points()), axis=0, append=np.asarray(designed.pitch_points())[:1]), axis=1)
-print(f"chords: {1e3 * chords.min():.9f} … {1e3 * chords.max():.9f} mm (pitch {1e3 * float(designed.pitch):.3f} mm)")
+ax[0].set(
+    xlabel="seat angle [deg]",
+    ylabel="seat radius − ISO pitch radius [mm]",
+    title="pitch curve (seat centres)",
+)
+seats = np.asarray(designed.pitch_points())
+chords = np.linalg.norm(np.diff(seats, axis=0, append=seats[:1]), axis=1)
+pitch = 1e3 * float(designed.pitch)
+print(f"chords: {1e3 * chords.min():.9f} … {1e3 * chords.max():.9f} mm (pitch {pitch:.3f} mm)")
 jc.plot_sprocket(designed, reference=iso21, ax=ax[1])
 plt.show()"""
     ),
@@ -179,8 +186,10 @@ for name, sol in () if FAST else (("circular crank", before), ("designed crank",
     cams = np.asarray(sol.sprocket_angle)[:, 1:]
     error = np.degrees(2 * np.abs(cams) - crank[:, None])
     ax[2].plot(deg, error[:, 1] - error[:, 1].mean(), label=f"{name}, intake")
-    print(f"{name}: tight span {tight.min():.0f}…{tight.max():.0f} N (p2p {np.ptp(tight):.0f} N), "
-          f"timing error p2p {np.ptp(error[:, 0]):.2f} / {np.ptp(error[:, 1]):.2f} deg")
+    print(
+        f"{name}: tight span {tight.min():.0f}…{tight.max():.0f} N (p2p {np.ptp(tight):.0f} N), "
+        f"timing error p2p {np.ptp(error[:, 0]):.2f} / {np.ptp(error[:, 1]):.2f} deg"
+    )
 ax[0].set(xlabel="crank angle [deg]", ylabel="tight-span tension [N]", title=f"{rpm:.0f} rpm")
 ax[1].set(xlabel="engine order", ylabel="amplitude [N]", title="tight-span spectrum")
 ax[2].set(xlabel="crank angle [deg]", ylabel="timing error [crank deg]", title="intake camshaft")
@@ -198,17 +207,25 @@ the default problem's schema (`improvement`: the re-measured fraction)."""
     ),
     new_code_cell(
         """s = run["summary"]
-print(f"worst tight-span p2p, lumped chain: {s['baseline_value']:.0f} → {s['optimized_value']:.0f} N "
-      f"({100 * s['improvement']:.0f} % lower); 2nd order {s['order2']['baseline_value']:.0f} → "
-      f"{s['order2']['optimized_value']:.0f} N; method {s['method']}")
-print(f"span model: {s['span_model']['baseline_value']:.0f} → {s['span_model']['optimized_value']:.0f} N; "
-      f"round crank with the designed tensioner {s['span_model']['round_crank_designed_tensioner_value']:.0f} N")
+o2, sm = s["order2"], s["span_model"]
+print(
+    f"worst tight-span p2p, lumped chain: {s['baseline_value']:.0f} → "
+    f"{s['optimized_value']:.0f} N ({100 * s['improvement']:.0f} % lower); 2nd order "
+    f"{o2['baseline_value']:.0f} → {o2['optimized_value']:.0f} N; method {s['method']}"
+)
+print(
+    f"span model: {sm['baseline_value']:.0f} → {sm['optimized_value']:.0f} N; round crank "
+    f"with the designed tensioner {sm['round_crank_designed_tensioner_value']:.0f} N"
+)
 print(f"largest timing error {s['timing_error_deg']:.2f} deg (limit {s['timing_limit_deg']})")
 print(" rpm   baseline p2p  design p2p   baseline 2nd  design 2nd")
 for b, d in zip(run["lumped"]["baseline"], run["lumped"]["optimized"]):
-    print(f"{b['rpm']:5.0f} {b['p2p']:12.0f} {d['p2p']:11.0f} {b['orders'][0]:13.0f} {d['orders'][0]:11.0f}")
-from IPython.display import Image
-Image(filename=str(RESULTS / "timing.png"))"""
+    row = (b["p2p"], d["p2p"], b["orders"][0], d["orders"][0])
+    print(f"{b['rpm']:5.0f} {row[0]:12.0f} {row[1]:11.0f} {row[2]:13.0f} {row[3]:11.0f}")
+plt.figure(figsize=(15, 4.4))
+plt.imshow(plt.imread(RESULTS / "timing.png"))
+plt.axis("off")
+plt.show()"""
     ),
     new_markdown_cell(
         """What the numbers say:
