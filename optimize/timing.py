@@ -524,3 +524,32 @@ def _plots(results: dict, profile, out: Path) -> None:
     fig.tight_layout()
     fig.savefig(out / "pitch_curve.png", dpi=120)
     plt.close(fig)
+
+
+def lines(rpm: float, u=None, *, saves: int = 360, top: int = 6) -> dict:
+    """What makes up the tight span's swing on the lumped chain at ``rpm`` (design ``u``;
+    None: the baseline), revolutions 3–5 sampled ``saves`` times per revolution: its
+    peak-to-peak, that of its 1st–6th engine orders alone and of the rest, and its
+    ``top`` largest order lines [N] (up to the 60th)::
+
+        python -c "from optimize import timing; print(timing.lines(3500.0))"
+
+    Needs float64 (``jax_enable_x64``)."""
+    scene = build(rpm, "lumped", u)
+    rev = 60.0 / rpm
+    ts = (REMEASURE_SETTLE + np.arange(REMEASURE_REVOLUTIONS * saves) / saves) * rev
+    sol = jc.simulate(scene, (REMEASURE_SETTLE + REMEASURE_REVOLUTIONS) * rev, ts=ts,
+                      rtol=1e-4, max_steps=5_000_000)  # fmt: skip
+    tight = np.asarray(sol.span_tension)[:, -1]
+    crank = np.asarray(sol.sprocket_angle)[:, 0]
+    k = np.arange(61)
+    c = 2 / len(tight) * (np.exp(-1j * np.outer(k, crank)) @ tight)
+    low = np.real(c[1:7] @ np.exp(1j * np.outer(k[1:7], crank)))
+    rest = tight - tight.mean() - low
+    order = np.argsort(np.abs(c[1:]))[::-1][:top] + 1
+    return {
+        "p2p": float(np.ptp(tight)),
+        "p2p_orders_1_6": float(np.ptp(low)),
+        "p2p_rest": float(np.ptp(rest)),
+        "lines": [(int(j), float(abs(c[j]))) for j in order],
+    }
