@@ -214,6 +214,18 @@ def test_what_the_span_model_does_not_model_is_refused(kw, message):
         jc.scenes.drive(CHAIN, teeth=(18, 36), fidelity="spans", **kw)
 
 
+def test_guides_are_checked_and_change_nothing():
+    """A guide lies along its straight span, which the span model never moves across: the
+    scene is the one without it; a guide on a span the drive has not is refused."""
+    kw = dict(teeth=(18, 36), load_torque=20.0, fidelity="spans")
+    plain = jc.scenes.drive(CHAIN, **kw)
+    guided = jc.scenes.drive(CHAIN, guides=(jc.scenes.Guide(span=1, length=0.1),), **kw)
+    same = jax.tree.map(lambda a, b: bool(np.array_equal(a, b)), plain, guided)
+    assert all(jax.tree.leaves(same))
+    with pytest.raises(ValueError, match="Guide.span"):
+        jc.scenes.drive(CHAIN, guides=(jc.scenes.Guide(span=2),), **kw)
+
+
 def test_the_engagement_strand_has_no_span_fidelity():
     with pytest.raises(ValueError, match="no rollers"):
         jc.scenes.engagement(CHAIN, 18, fidelity="spans")

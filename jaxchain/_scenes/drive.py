@@ -133,7 +133,8 @@ def drive(
             pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
             spans as axial springs between the sprockets' pitch curves, for the drive's
             tensions and speeds over many revolutions; fixed axes, a tensioner's shoe as a
-            frictionless circle the chain slides over, no guides or gravity; see
+            frictionless circle the chain slides over, guides checked but without effect
+            (they lie along the straight spans, which do not move across), no gravity; see
             :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
         form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
         profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
@@ -366,7 +367,6 @@ def _spans(
 ) -> Scene:  # fmt: skip
     """``fidelity="spans"``: what it models, checked, then :func:`.spans.spans_drive`."""
     unsupported = {
-        "guides": guides is not None and len(guides) > 0,
         "gravity": gravity is not None,
         "elongation": elongation != 0.0,
         "n_links without a tensioner": n_links is not None and tensioner is None,
@@ -394,5 +394,5 @@ def _spans(
         chain, tuple(teeth), centres, outside=outside, take_up_sprocket=take_up_sprocket,
         speed_rpm=speed_rpm, load_torque=load_torque, pretension=pretension, form=form,
         profiles=profiles, driven_inertia=driven_inertia, load_ramp=load_ramp,
-        link_damping=link_damping, tensioner=tensioner, n_links=n_links,
+        link_damping=link_damping, tensioner=tensioner, n_links=n_links, guides=guides,
     )  # fmt: skip

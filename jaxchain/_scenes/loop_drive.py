@@ -171,7 +171,7 @@ def loop_drive(
         load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
     profiles = as_profiles(chain, profiles, teeth, form)
     radii = [float(p.pitch_radius) for p in profiles]
-    guides = _as_guides(guides, n, tensioner)
+    guides = as_guides(guides, n, tensioner)
     if tensioner is not None:
         if take_up_sprocket is not None:
             raise ValueError(
@@ -278,7 +278,7 @@ def loop_drive(
     return equilibrate(scene, take_up=0.0 if tensioner is not None else 2 * pretension)
 
 
-def _as_guides(guides, n: int, tensioner) -> tuple[Guide, ...]:
+def as_guides(guides, n: int, tensioner) -> tuple[Guide, ...]:
     """``guides`` checked: a sequence of :class:`Guide` on spans in [0, N − 1], none on the
     tensioner's span."""
     if isinstance(guides, Guide):

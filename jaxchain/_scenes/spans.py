@@ -23,7 +23,7 @@ from .._scene import Scene, Sprocket
 from .build import link_stiffness, roller_law
 from .common import as_loads, as_profiles, check_load_ramp, sprocket_inertias, stretch_of
 from .loop import as_centres, as_outside
-from .loop_drive import span_tensions, tensioned_layout, tensioner_tensions
+from .loop_drive import as_guides, span_tensions, tensioned_layout, tensioner_tensions
 from .shoes import Tensioner, place_tensioner
 
 __all__ = ["spans_drive", "span_element", "SpanShoe", "SPAN_ORDER"]
@@ -140,17 +140,22 @@ def spans_drive(
     link_damping: float,
     tensioner: Tensioner | None = None,
     n_links: int | None = None,
+    guides=(),
 ) -> Scene:
     """The span-level drive over N sprockets (see :func:`~jaxchain.scenes.drive`): the
     sprockets at ``centres`` (the driver first, the loop counter-clockwise, ``outside``
     ones on the chain's back), the spans' start tensions those of the statics with
     ``pretension`` shared by the take-up sprocket's two spans (or carried by the
-    ``tensioner``'s span) and every driven sprocket's load carried."""
+    ``tensioner``'s span) and every driven sprocket's load carried. ``guides`` are checked
+    as the lumped chain checks them and change nothing: a guide's face lies along its
+    straight span (at the rollers or ``offset`` beyond), and the span model's spans do not
+    move across to meet it."""
     n = len(teeth)
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
     centres = as_centres(centres, n)
     sense = np.ones(n)
     sense[list(as_outside(outside, n))] = -1.0
+    as_guides(() if guides is None else guides, n, tensioner)
     if tensioner is not None and take_up_sprocket is not None:
         raise ValueError(
             "take_up_sprocket: a drive with a tensioner needs no take-up sprocket (the "
