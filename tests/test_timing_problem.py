@@ -21,7 +21,7 @@ def test_timing_problem_interrupted_resumed_and_remeasured(tmp_path, monkeypatch
 
     def interrupted(self, u):
         calls.append(1)
-        if len(calls) == 5:  # Ctrl-C inside CMA-ES (after the warm-up's two values)
+        if len(calls) == 6:  # Ctrl-C inside CMA-ES (after the baseline and warm-up values)
             raise KeyboardInterrupt
         return real(self, u)
 
