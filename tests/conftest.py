@@ -11,7 +11,7 @@ os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(CACHE))  # notebook kerne
 # calling back to Python (jaxchain reports failures as result codes, checked outside the
 # graph); XLA's persistent cache keeps only computations without host callbacks.
 os.environ.setdefault("EQX_ON_ERROR", "nan")
-os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
 # XLA's older CPU fusion emitters: a third less compile time; each xdist worker on a core
 # of its own (tests/xla_flags.py)
 from xla_flags import fast_compile, pin_worker  # noqa: E402  (imports no JAX)
@@ -32,6 +32,17 @@ hypothesis.settings.register_profile("default", deadline=None, max_examples=60, 
 # run the compiled function)
 hypothesis.settings.register_profile("ci", deadline=None, max_examples=40, derandomize=True)
 hypothesis.settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+
+def pytest_configure(config):
+    """``JAXCHAIN_TIME_LOG=<folder>``: log each test's wall and compile time there
+    (tests/time_log.py)."""
+    folder = os.environ.get("JAXCHAIN_TIME_LOG")
+    controller = config.getoption("numprocesses", None) and not hasattr(config, "workerinput")
+    if folder and not controller:  # the workers run the tests, not xdist's controller
+        from time_log import TimeLog
+
+        config.pluginmanager.register(TimeLog(Path(folder)), "jaxchain_time_log")
 
 
 # Heaviest units first (cold-cache durations on the 2-core machine): each worker takes the

@@ -25,6 +25,7 @@ from .._observers.base import (
     window_weight as window_weight,
 )
 from .._profiles.iso import ToothProfile
+from .._programs import stored
 from .._scene import Scene
 from .._scenes.statics import resettle, statics_jacobian
 from .._solve import distributed as dist
@@ -265,8 +266,11 @@ def _combined(values, grads, cfg):
 
 # module level: every ProfileObjective with the same static settings and scene structure
 # shares one compiled function
-_value = eqx.filter_jit(_loss)
-_value_and_grad = eqx.filter_jit(eqx.filter_value_and_grad(_loss, has_aux=True))
+# (and across processes: jaxchain._programs)
+_value = stored("jaxchain.design.value")(eqx.filter_jit(_loss))
+_value_and_grad = stored("jaxchain.design.value_and_grad")(
+    eqx.filter_jit(eqx.filter_value_and_grad(_loss, has_aux=True))
+)
 # across processes: each process's share of the members, per member; combined after
 _members = eqx.filter_jit(eqx.filter_vmap(_member, in_axes=_MEMBER_AXES))
 _members_grad = eqx.filter_jit(eqx.filter_vmap(_member_grad, in_axes=_MEMBER_AXES))

@@ -40,6 +40,7 @@ from jaxtyping import ArrayLike
 from .. import _checks as checks
 from .._dynamics import DriveState, forces
 from .._numerics import is_concrete
+from .._programs import stored
 from .._scene import Scene
 
 __all__ = ["equilibrate", "resettle", "statics_jacobian"]
@@ -237,6 +238,9 @@ def _relax(scene, force_scale, x0, free, take_up, dt, max_steps, tolerance):
     steps, x, _, _, r, _, _, limit = jax.lax.while_loop(going, step, init)
     worst = jnp.max(jnp.abs(r)) * force_scale
     return x, worst, steps, jnp.isfinite(worst) & (worst < limit)
+
+
+_relax = stored("jaxchain.statics.relax")(_relax)  # traced once across processes
 
 
 def equilibrate(

@@ -12,6 +12,7 @@ from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._numerics import is_concrete
 from .._observers.base import AbstractIntegralObserver, AbstractStepObserver, PeakRecord
+from .._programs import stored
 from .._scene import Scene
 from .options import SolveOptions, with_options
 from .result import Result, raise_if_failed, result_messages, result_names
@@ -270,7 +271,7 @@ def simulate(
     t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
     check_horizon(scene, t1a, "simulate")
     observers = _checked_observers(observers, "simulate")
-    traj = solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(), *observers))
+    traj = _solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(), *observers))
     saved = traj.saved
     if throw:
         saved = raise_if_failed(traj.result, saved, "simulate")
@@ -283,6 +284,9 @@ def simulate(
         observed=traj.observed[1:],
         **split_saved(saved),
     )
+
+
+_solve = stored("jaxchain.simulate.solve")(solve)  # traced once across processes
 
 
 def _checked_observers(observers, caller: str) -> tuple:

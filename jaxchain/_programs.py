@@ -1,0 +1,249 @@
+"""Traced programs kept across processes.
+
+JAX's persistent compilation cache skips XLA's compile in a second process, but not the
+tracing and lowering before it, which for a solve is about as long (a few seconds; the
+gradient of a design objective's solve, ten or more). :func:`stored` keeps the traced
+program itself, exported (``jax.export``) beside the compilation cache, so that a second
+process that calls the same program (same structure, shapes and constants) reads it back
+and runs it without tracing.
+
+A program is stored only when its identity is known exactly from its arguments: every
+class, function and constant in them must come from jaxchain or the numerical libraries
+it builds on (jax, diffrax, equinox, optimistix, lineax), whose code the key covers by
+jaxchain's source digest and the libraries' versions. A user's own class or function
+anywhere in the arguments (a force element, a load, a lambda), a traced argument (inside
+the caller's ``jax.jit``/``jax.grad``) or a program that cannot be exported runs the
+ordinary way. The store is on when JAX's persistent compilation cache is
+(``jax_compilation_cache_dir``), in a folder beside it (``JAXCHAIN_PROGRAM_STORE=<folder>``
+puts it elsewhere), and off with ``JAXCHAIN_PROGRAM_STORE=0``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import functools
+import hashlib
+import os
+import pickle
+import sys
+import tempfile
+import types
+from importlib import metadata
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import numpy as np
+
+__all__ = ["stored", "store_folder"]
+
+FORMAT = 1
+LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax")
+_TRUSTED = ("jaxchain", "diffrax", "equinox", "optimistix", "lineax", "jax", "jaxlib")
+_MEMORY: dict[str, object] = {}  # key -> (jitted call, skeleton), or None: not storable
+
+
+class _Refused(Exception):
+    """The arguments hold something whose identity a key cannot capture."""
+
+
+class _Slot(int):
+    """Where an output array goes in the stored output's skeleton."""
+
+
+def store_folder() -> Path | None:
+    """The folder of stored programs: ``JAXCHAIN_PROGRAM_STORE`` if it names one, else
+    beside JAX's persistent compilation cache; None (no store) when that cache is off or
+    ``JAXCHAIN_PROGRAM_STORE=0``."""
+    chosen = os.environ.get("JAXCHAIN_PROGRAM_STORE", "")
+    if chosen == "0":
+        return None
+    if chosen:
+        return Path(chosen)
+    cache = _cache_dir()
+    return Path(cache) / "jaxchain-programs" if cache else None
+
+
+def _cache_dir() -> str | None:
+    return jax.config.jax_compilation_cache_dir
+
+
+@functools.cache
+def _environment() -> str:
+    """What, besides the arguments, decides the traced program: jaxchain's source, the
+    libraries' versions and the settings that change tracing or lowering."""
+    digest = hashlib.sha256()
+    root = Path(__file__).resolve().parent
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode())
+        digest.update(path.read_bytes())
+    versions = []
+    for name in LIBRARIES:
+        try:
+            versions.append(f"{name}={metadata.version(name)}")
+        except metadata.PackageNotFoundError:
+            versions.append(f"{name}=?")
+    return "|".join([FORMAT.__str__(), digest.hexdigest(), *versions, sys.version])
+
+
+def _settings() -> str:
+    import equinox._errors as eqx_errors
+
+    return "|".join(
+        str(x)
+        for x in (
+            jax.config.jax_enable_x64,
+            jax.default_backend(),
+            os.environ.get("XLA_FLAGS", ""),
+            eqx_errors.EQX_ON_ERROR,
+            jax.config.jax_default_matmul_precision,
+            jax.config.jax_numpy_dtype_promotion,
+        )
+    )
+
+
+def _trusted(obj) -> str:
+    module = getattr(obj, "__module__", None) or ""
+    qualname = getattr(obj, "__qualname__", None) or ""
+    if module.split(".")[0] not in _TRUSTED or "<" in qualname:  # <locals>, <lambda>
+        raise _Refused(f"{module}.{qualname}")
+    return f"{module}.{qualname}"
+
+
+def _describe(x, depth: int = 0) -> str:
+    """A description of ``x`` that equal programs share and different ones do not:
+    arrays by dtype and shape, everything else by value; ``_Refused`` for what has no
+    such description."""
+    if depth > 64:
+        raise _Refused("too deep")
+    d = functools.partial(_describe, depth=depth + 1)
+    if isinstance(x, jax.core.Tracer):
+        raise _Refused("traced")
+    if isinstance(x, jax.Array) and len(x.sharding.device_set) != 1:
+        raise _Refused("sharded")  # an exported program runs on one device
+    if isinstance(x, (jax.Array, np.ndarray, np.generic)):
+        weak = getattr(x, "weak_type", False)
+        return f"A{np.dtype(x.dtype).str}{tuple(np.shape(x))}{'w' if weak else ''}"
+    if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
+        return f"{type(x).__name__}:{x!r}"
+    if isinstance(x, enum.Enum):
+        return f"E{_trusted(type(x))}.{x.name}"
+    if isinstance(x, type):
+        return f"T{_trusted(x)}"
+    if isinstance(x, (types.FunctionType, types.BuiltinFunctionType)):
+        return f"F{_trusted(x)}"
+    if isinstance(x, types.MethodType):
+        return f"M{d(x.__self__)}.{x.__func__.__name__}"
+    if isinstance(x, functools.partial):
+        return f"P({d(x.func)},{d(x.args)},{d(x.keywords)})"
+    if isinstance(x, (tuple, list)) and type(x) in (tuple, list):
+        return f"{type(x).__name__}({','.join(d(v) for v in x)})"
+    if isinstance(x, dict) and type(x) is dict:
+        items = sorted(x.items(), key=lambda kv: repr(kv[0]))
+        return "dict(" + ",".join(f"{d(k)}:{d(v)}" for k, v in items) + ")"
+    name = _trusted(type(x))
+    if isinstance(x, tuple) and hasattr(x, "_fields"):  # a NamedTuple
+        return f"N{name}({','.join(d(v) for v in x)})"
+    if dataclasses.is_dataclass(x):  # equinox modules among them
+        fields = ",".join(f"{f.name}={d(getattr(x, f.name, None))}" for f in dataclasses.fields(x))
+        return f"D{name}({fields})"
+    raise _Refused(name)
+
+
+def _key(name: str, args) -> str | None:
+    try:
+        text = "\n".join([name, _environment(), _settings(), _describe(args)])
+    except _Refused:
+        return None
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _skeleton(out):
+    """``out`` with its arrays replaced by their positions (picklable), and the arrays."""
+    dynamic, static = eqx.partition(out, eqx.is_array)
+    leaves, treedef = jax.tree_util.tree_flatten(dynamic)
+    slots = jax.tree_util.tree_unflatten(treedef, [_Slot(i) for i in range(len(leaves))])
+    return eqx.combine(slots, static, is_leaf=lambda v: isinstance(v, _Slot)), leaves
+
+
+def _fill(skeleton, leaves):
+    return jax.tree_util.tree_map(
+        lambda v: leaves[v] if isinstance(v, _Slot) else v,
+        skeleton,
+        is_leaf=lambda v: isinstance(v, _Slot),
+    )
+
+
+def _export(fn, args):
+    """Trace ``fn(*args)`` once into an exported program of the arguments' arrays."""
+    dynamic, static = eqx.partition(args, eqx.is_array)
+    leaves, treedef = jax.tree_util.tree_flatten(dynamic)
+    box = []
+
+    def flat(arrays):
+        out = fn(*eqx.combine(jax.tree_util.tree_unflatten(treedef, arrays), static))
+        skeleton, out_leaves = _skeleton(out)
+        box.append(skeleton)
+        return out_leaves
+
+    exported = jax.export.export(jax.jit(flat))(leaves)
+    return exported, box[0]
+
+
+def _save(folder: Path, key: str, exported, skeleton) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    data = pickle.dumps({"exported": bytes(exported.serialize()), "skeleton": skeleton})
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    os.replace(tmp, folder / key)  # atomic: a reader sees the whole entry or none
+
+
+def _load(folder: Path, key: str):
+    path = folder / key
+    if not path.exists():
+        return None
+    try:
+        data = pickle.loads(path.read_bytes())
+        return jax.export.deserialize(bytearray(data["exported"])), data["skeleton"]
+    except Exception:  # damaged or from another version of a library: trace anew
+        path.unlink(missing_ok=True)
+        return None
+
+
+def stored(name: str):
+    """Decorate a jitted function of arrays and static data: its concrete calls run a
+    program exported to (and read back from) :func:`store_folder`, traced once across
+    processes; everything else calls it as it is. ``name`` identifies the function in the
+    key."""
+
+    def wrap(fn):
+        @functools.wraps(fn)
+        def call(*args):
+            folder = store_folder()
+            key = None if folder is None else _key(name, args)
+            if key is None or _MEMORY.get(key, True) is None:
+                return fn(*args)
+            entry = _MEMORY.get(key)
+            if entry is None:
+                found = _load(folder, key)
+                if found is None:
+                    try:
+                        found = _export(fn, args)
+                    except Exception:  # not exportable (e.g. a host callback)
+                        _MEMORY[key] = None
+                        return fn(*args)
+                    try:
+                        _save(folder, key, *found)
+                    except Exception:  # unwritable folder, no flatbuffers: kept in memory
+                        pass
+                exported, skeleton = found
+                entry = _MEMORY[key] = (jax.jit(exported.call), skeleton)
+            run, skeleton = entry
+            leaves = jax.tree_util.tree_leaves(eqx.filter(args, eqx.is_array))
+            return _fill(skeleton, run(leaves))
+
+        return call
+
+    return wrap

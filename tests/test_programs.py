@@ -1,0 +1,111 @@
+"""Traced programs kept across processes (jaxchain._programs): a program read back from
+the store runs without tracing and gives what the ordinary call gives, bit for bit; what
+a key cannot identify runs the ordinary way."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxchain as jc
+import jaxchain._programs as programs
+
+from helpers import count_vector_field_calls
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    """A store of its own in ``tmp_path`` and an empty memory (a fresh process's)."""
+    monkeypatch.setenv("JAXCHAIN_PROGRAM_STORE", str(tmp_path / "programs"))
+    monkeypatch.setattr(programs, "_MEMORY", {})
+    return tmp_path / "programs"
+
+
+def _poly(x, powers):
+    return {"sum": sum(x**p for p in powers), "n": len(powers)}
+
+
+def test_read_back_without_tracing_equal_bit_for_bit(store, monkeypatch):
+    traced = []
+
+    def counting(x, powers):
+        traced.append(1)
+        return _poly(x, powers)
+
+    run = programs.stored("test.poly")(eqx.filter_jit(counting))
+    x = jnp.linspace(0.0, 1.0, 7)
+    first = run(x, (1, 2, 3))
+    assert len(traced) == 1 and len(list(store.iterdir())) == 1
+    monkeypatch.setattr(programs, "_MEMORY", {})  # another process
+    again = run(x + 1.0, (1, 2, 3))
+    assert len(traced) == 1  # read back, not traced
+    ordinary = eqx.filter_jit(_poly)(x + 1.0, (1, 2, 3))
+    np.testing.assert_array_equal(again["sum"], ordinary["sum"])
+    assert again["n"] == 3 and first["n"] == 3  # static outputs kept
+    run(x, (1, 2))  # another constant: another program
+    run(jnp.zeros(3), (1, 2, 3))  # another shape: another program
+    assert len(traced) == 3 and len(list(store.iterdir())) == 3
+
+
+def test_what_a_key_cannot_identify_runs_the_ordinary_way(store):
+    class Mine(eqx.Module):  # a user's class: its code is not in the key
+        a: jax.Array
+
+    x = jnp.ones(3)
+    assert programs._key("f", (x, Mine(x))) is None
+    assert programs._key("f", (x, lambda v: v)) is None
+    assert programs._key("f", (x, jc.scenes.roller_law("08B", 0.7))) is not None
+    seen = []
+
+    def traced_inside(v):
+        seen.append(programs._key("f", (v,)))
+        return v
+
+    jax.jit(traced_inside)(x)
+    assert seen == [None]  # a traced argument
+    run = programs.stored("test.mine")(eqx.filter_jit(lambda m: m.a * 2))
+    np.testing.assert_array_equal(run(Mine(x)), 2 * x)
+    assert not store.exists()
+
+
+def test_off_without_a_compilation_cache_or_when_switched_off(store, monkeypatch):
+    run = programs.stored("test.poly")(eqx.filter_jit(_poly))
+    monkeypatch.setenv("JAXCHAIN_PROGRAM_STORE", "0")
+    run(jnp.ones(2), (1,))
+    assert programs.store_folder() is None
+    monkeypatch.delenv("JAXCHAIN_PROGRAM_STORE")
+    monkeypatch.setattr(programs, "_cache_dir", lambda: None)
+    assert programs.store_folder() is None
+    run(jnp.ones(2), (1,))
+    monkeypatch.setattr(programs, "_cache_dir", lambda: "/somewhere")
+    assert programs.store_folder() == programs.Path("/somewhere/jaxchain-programs")
+    assert not store.exists()
+
+
+def test_a_damaged_entry_is_traced_anew(store, monkeypatch):
+    run = programs.stored("test.poly")(eqx.filter_jit(_poly))
+    run(jnp.ones(2), (1,))
+    (entry,) = store.iterdir()
+    entry.write_bytes(b"damaged")
+    monkeypatch.setattr(programs, "_MEMORY", {})
+    np.testing.assert_array_equal(run(jnp.ones(2), (1,))["sum"], jnp.ones(2))  # x¹ = x
+    assert entry.read_bytes() != b"damaged"
+
+
+def test_simulate_read_back_equals_the_ordinary_solve(store, monkeypatch):
+    """simulate's solve from the store: no trace, every output equal to the ordinary
+    call's bit for bit (the engagement strand of test_engagement, default options)."""
+    scene = jc.scenes.engagement("08B", 18, n_entry=3)
+    t1 = 60.0 / (18 * 1000.0)
+    jc.simulate(scene, t1)  # stores the program
+    monkeypatch.setattr(programs, "_MEMORY", {})  # another process
+    calls = count_vector_field_calls(monkeypatch)
+    read = jc.simulate(scene, t1)
+    assert len(calls) == 0
+    monkeypatch.setenv("JAXCHAIN_PROGRAM_STORE", "0")
+    ordinary = jc.simulate(scene, t1)
+    for a, b in zip(
+        jax.tree_util.tree_leaves(read), jax.tree_util.tree_leaves(ordinary), strict=True
+    ):
+        np.testing.assert_array_equal(a, b)
