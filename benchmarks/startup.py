@@ -1,7 +1,8 @@
 """Time to first result: a first process against a second one that finds the first's
 persistent compilation cache, and which programs the cache refused.
 
-    python -m benchmarks.startup            # two processes, equinox in its default mode
+    python -m benchmarks.startup            # two processes, equinox in its default mode,
+                                            # with jaxchain's program store and without
     python -m benchmarks.startup --quick    # the same, the design objective left out
 
 Writes ``benchmarks/results/startup.json`` and ``startup.png``.
@@ -12,7 +13,9 @@ static equilibrium; its first ``simulate`` of one tooth period (trace, compile o
 load, run) and a second one (run only); the ISO-box design objective's value and gradient
 (fixed 4 µs steps). JAX logs every program it compiles and whether the persistent cache
 took it; the study counts the programs refused ("uses host callbacks"). equinox runs in
-its default mode (``EQX_ON_ERROR`` unset), as in a user's notebook.
+its default mode (``EQX_ON_ERROR`` unset), as in a user's notebook. The pair runs twice,
+each in a cache of its own: with jaxchain's store of traced programs beside the cache
+(the default) and without it (``JAXCHAIN_PROGRAM_STORE=0``).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import time
 
 from benchmarks.common import finish, header, parse, parser, save_chart
 
+STORE = "JAXCHAIN_PROGRAM_STORE"  # jaxchain's traced programs beside the cache: 0 = off
 PHASES = ("import", "build + statics", "first simulate", "second simulate", "objective")
 
 CHILD = r"""
@@ -61,8 +65,10 @@ print(json.dumps({"times_s": times, "refused": refused}))
 """
 
 
-def run(cache: str, objective: bool) -> dict:
-    env = {k: v for k, v in os.environ.items() if k != "EQX_ON_ERROR"}
+def run(cache: str, objective: bool, store: bool = True) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("EQX_ON_ERROR", STORE)}
+    if not store:
+        env[STORE] = "0"
     t = time.perf_counter()
     out = subprocess.run(
         [sys.executable, "-c", CHILD, cache, "1" if objective else "0"],
@@ -80,7 +86,7 @@ def chart(results: dict, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 3.4))
+    fig, ax = plt.subplots(figsize=(9, 4.2))
     for i, row in enumerate(results["processes"].values()):
         left = 0.0
         for k, name in enumerate(p for p in PHASES if p in row["times_s"]):
@@ -93,7 +99,7 @@ def chart(results: dict, path) -> None:
     ax.set_xlim(0, 1.15 * most)
     ax.set_ylim(-0.6, len(results["processes"]) + 0.6)  # room for the legend above
     ax.set_xlabel("time to each result [s]")
-    ax.set_title("first process against a second with the first's compilation cache")
+    ax.set_title("first process against a second with the first's caches")
     ax.legend(fontsize=7, loc="upper center", ncols=len(PHASES), frameon=False)
     save_chart(fig, results, path)
 
@@ -103,15 +109,24 @@ def main(argv=None) -> dict:
     args = parse(ap, argv)
     start = time.perf_counter()
     res = header("startup", argv)
-    with tempfile.TemporaryDirectory() as cache:
-        first = run(cache, not args.quick)
-        second = run(cache, not args.quick)
-    res["processes"] = {"first process": first, "second process": second}
-    res["second_over_first"] = second["total_s"] / first["total_s"]
+    processes = {}
+    for store, label in ((True, ""), (False, ", no program store")):
+        with tempfile.TemporaryDirectory() as cache:
+            processes[f"first process{label}"] = run(cache, not args.quick, store)
+            processes[f"second process{label}"] = run(cache, not args.quick, store)
+    res["processes"] = processes
+    total = {k: v["total_s"] for k, v in processes.items()}
+    res["second_over_first"] = total["second process"] / total["first process"]
+    res["second_over_first_no_store"] = (
+        total["second process, no program store"] / total["first process, no program store"]
+    )
+    refused = sorted({r for v in processes.values() for r in v["refused"]})
     print(
-        f"first {first['total_s']:.1f} s, second {second['total_s']:.1f} s "
-        f"({100 * res['second_over_first']:.0f} %); refused by the cache: "
-        f"{sorted(set(first['refused']))}"
+        f"first {total['first process']:.1f} s, second {total['second process']:.1f} s "
+        f"({100 * res['second_over_first']:.0f} %); without the program store "
+        f"{total['first process, no program store']:.1f} s and "
+        f"{total['second process, no program store']:.1f} s "
+        f"({100 * res['second_over_first_no_store']:.0f} %); refused by the cache: {refused}"
     )
     return finish(res, args.out, "startup", chart, start)
 

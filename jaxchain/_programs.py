@@ -111,20 +111,24 @@ def _trusted(obj) -> str:
     return f"{module}.{qualname}"
 
 
-def _describe(x, depth: int = 0) -> str:
+def _describe(x, depth: int = 0, static: bool = False) -> str:
     """A description of ``x`` that equal programs share and different ones do not:
-    arrays by dtype and shape, everything else by value; ``_Refused`` for what has no
-    such description."""
+    arrays by dtype and shape (by value too in a static field, which the program holds
+    as a constant), everything else by value; ``_Refused`` for what has no such
+    description."""
     if depth > 64:
         raise _Refused("too deep")
-    d = functools.partial(_describe, depth=depth + 1)
+    d = functools.partial(_describe, depth=depth + 1, static=static)
     if isinstance(x, jax.core.Tracer):
         raise _Refused("traced")
     if isinstance(x, jax.Array) and len(x.sharding.device_set) != 1:
         raise _Refused("sharded")  # an exported program runs on one device
     if isinstance(x, (jax.Array, np.ndarray, np.generic)):
         weak = getattr(x, "weak_type", False)
-        return f"A{np.dtype(x.dtype).str}{tuple(np.shape(x))}{'w' if weak else ''}"
+        text = f"A{np.dtype(x.dtype).str}{tuple(np.shape(x))}{'w' if weak else ''}"
+        if static:
+            text += hashlib.sha256(np.ascontiguousarray(x).tobytes()).hexdigest()
+        return text
     if x is None or isinstance(x, (bool, int, float, complex, str, bytes)):
         return f"{type(x).__name__}:{x!r}"
     if isinstance(x, enum.Enum):
@@ -146,8 +150,11 @@ def _describe(x, depth: int = 0) -> str:
     if isinstance(x, tuple) and hasattr(x, "_fields"):  # a NamedTuple
         return f"N{name}({','.join(d(v) for v in x)})"
     if dataclasses.is_dataclass(x):  # equinox modules among them
-        fields = ",".join(f"{f.name}={d(getattr(x, f.name, None))}" for f in dataclasses.fields(x))
-        return f"D{name}({fields})"
+        fields = []
+        for f in dataclasses.fields(x):
+            held = static or bool(f.metadata.get("static"))
+            fields.append(f"{f.name}={_describe(getattr(x, f.name, None), depth + 1, held)}")
+        return f"D{name}({','.join(fields)})"
     raise _Refused(name)
 
 
@@ -197,6 +204,7 @@ def _save(folder: Path, key: str, exported, skeleton) -> None:
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-")
     with os.fdopen(fd, "wb") as f:
         f.write(data)
+    os.chmod(tmp, 0o644)  # as the compilation cache's own entries
     os.replace(tmp, folder / key)  # atomic: a reader sees the whole entry or none
 
 

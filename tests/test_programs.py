@@ -22,6 +22,13 @@ def store(tmp_path, monkeypatch):
     return tmp_path / "programs"
 
 
+class Held(eqx.Module):
+    t1: object = eqx.field(static=True)
+
+
+Held.__module__ = "jaxchain.test"  # as if jaxchain's own
+
+
 def _poly(x, powers):
     return {"sum": sum(x**p for p in powers), "n": len(powers)}
 
@@ -48,6 +55,7 @@ def test_read_back_without_tracing_equal_bit_for_bit(store, monkeypatch):
     assert len(traced) == 3 and len(list(store.iterdir())) == 3
 
 
+@pytest.mark.filterwarnings("ignore:A JAX array is being set as static")
 def test_what_a_key_cannot_identify_runs_the_ordinary_way(store):
     class Mine(eqx.Module):  # a user's class: its code is not in the key
         a: jax.Array
@@ -56,6 +64,9 @@ def test_what_a_key_cannot_identify_runs_the_ordinary_way(store):
     assert programs._key("f", (x, Mine(x))) is None
     assert programs._key("f", (x, lambda v: v)) is None
     assert programs._key("f", (x, jc.scenes.roller_law("08B", 0.7))) is not None
+    # a static field's array is a constant of the program: its value is in the key
+    keys = {programs._key("f", (Held(np.float64(v)),)) for v in (1.0, 2.0, 1.0)}
+    assert len(keys) == 2 and None not in keys
     seen = []
 
     def traced_inside(v):
