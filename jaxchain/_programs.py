@@ -34,6 +34,7 @@ from pathlib import Path
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 __all__ = ["stored", "store_folder"]
@@ -192,7 +193,9 @@ def _export(fn, args):
         out = fn(*eqx.combine(jax.tree_util.tree_unflatten(treedef, arrays), static))
         skeleton, out_leaves = _skeleton(out)
         box.append(skeleton)
-        return out_leaves
+        # strongly typed: a program read back returns no weak types, so the first process
+        # must not either (what consumes the outputs traces alike in every process)
+        return [jnp.asarray(v, dtype=v.dtype) for v in out_leaves]
 
     exported = jax.export.export(jax.jit(flat))(leaves)
     return exported, box[0]

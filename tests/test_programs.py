@@ -30,7 +30,7 @@ Held.__module__ = "jaxchain.test"  # as if jaxchain's own
 
 
 def _poly(x, powers):
-    return {"sum": sum(x**p for p in powers), "n": len(powers)}
+    return {"sum": sum(x**p for p in powers), "n": len(powers), "one": jnp.asarray(1) + 0 * x}
 
 
 def test_read_back_without_tracing_equal_bit_for_bit(store, monkeypatch):
@@ -50,6 +50,9 @@ def test_read_back_without_tracing_equal_bit_for_bit(store, monkeypatch):
     ordinary = eqx.filter_jit(_poly)(x + 1.0, (1, 2, 3))
     np.testing.assert_array_equal(again["sum"], ordinary["sum"])
     assert again["n"] == 3 and first["n"] == 3  # static outputs kept
+    # the same types whether traced here or read back (a read-back program returns no
+    # weak types, so neither does the first call)
+    assert (first["one"].dtype, first["one"].weak_type) == (again["one"].dtype, False)
     run(x, (1, 2))  # another constant: another program
     run(jnp.zeros(3), (1, 2, 3))  # another shape: another program
     assert len(traced) == 3 and len(list(store.iterdir())) == 3
