@@ -43,6 +43,7 @@ FORMAT = 1
 LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax")
 _TRUSTED = ("jaxchain", "diffrax", "equinox", "optimistix", "lineax", "jax", "jaxlib")
 _MEMORY: dict[str, object] = {}  # key -> (jitted call, skeleton), or None: not storable
+_ABSENT = object()
 
 
 class _Refused(Exception):
@@ -85,7 +86,7 @@ def _environment() -> str:
             versions.append(f"{name}={metadata.version(name)}")
         except metadata.PackageNotFoundError:
             versions.append(f"{name}=?")
-    return "|".join([FORMAT.__str__(), digest.hexdigest(), *versions, sys.version])
+    return "|".join([str(FORMAT), digest.hexdigest(), *versions, sys.version])
 
 
 def _settings() -> str:
@@ -234,10 +235,10 @@ def stored(name: str):
         def call(*args):
             folder = store_folder()
             key = None if folder is None else _key(name, args)
-            if key is None or _MEMORY.get(key, True) is None:
+            entry = _MEMORY.get(key, _ABSENT) if key is not None else None
+            if entry is None:  # not storable
                 return fn(*args)
-            entry = _MEMORY.get(key)
-            if entry is None:
+            if entry is _ABSENT:
                 found = _load(folder, key)
                 if found is None:
                     try:
