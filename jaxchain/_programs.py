@@ -184,10 +184,9 @@ def _fill(skeleton, leaves):
     )
 
 
-def _export(fn, args):
-    """Trace ``fn(*args)`` once into an exported program of the arguments' arrays."""
-    dynamic, static = eqx.partition(args, eqx.is_array)
-    leaves, treedef = jax.tree_util.tree_flatten(dynamic)
+def _export(fn, leaves, treedef, static):
+    """Trace ``fn`` once into an exported program of the arguments' arrays ``leaves``
+    (the arguments: ``treedef`` of them combined with ``static``)."""
     box = []
 
     def flat(arrays):
@@ -238,11 +237,13 @@ def stored(name: str):
             entry = _MEMORY.get(key, _ABSENT) if key is not None else None
             if entry is None:  # not storable
                 return fn(*args)
+            dynamic, static = eqx.partition(args, eqx.is_array)
+            leaves, treedef = jax.tree_util.tree_flatten(dynamic)
             if entry is _ABSENT:
                 found = _load(folder, key)
                 if found is None:
                     try:
-                        found = _export(fn, args)
+                        found = _export(fn, leaves, treedef, static)
                     except Exception:  # not exportable (e.g. a host callback)
                         _MEMORY[key] = None
                         return fn(*args)
@@ -253,7 +254,6 @@ def stored(name: str):
                 exported, skeleton = found
                 entry = _MEMORY[key] = (jax.jit(exported.call), skeleton)
             run, skeleton = entry
-            leaves = jax.tree_util.tree_leaves(eqx.filter(args, eqx.is_array))
             return _fill(skeleton, run(leaves))
 
         return call

@@ -63,46 +63,47 @@ class TimeLog:
         self.file.write(json.dumps(record) + "\n")
 
 
+def _records(folder: Path):
+    """Every test's record in the folder's logs."""
+    for path in folder.glob("*.jsonl"):
+        for line in path.read_text().splitlines():
+            yield json.loads(line)
+
+
+def _row(name: str, v) -> str:
+    return (
+        f"{name[-44:]:44s} {int(v['tests']):5d} {v['wall']:7.1f} {v['trace']:6.1f} "
+        f"{v['lower']:6.1f} {v['compile']:7.1f} {int(v['programs']):5d}"
+    )
+
+
 def summary(folder: Path) -> str:
     """Per file: wall seconds and the trace/lower/compile seconds within, heaviest first."""
     files = defaultdict(lambda: defaultdict(float))
-    for path in folder.glob("*.jsonl"):
-        for line in path.read_text().splitlines():
-            r = json.loads(line)
-            key = r["test"].split("::")[0]
-            if "test_notebooks" in key:
-                key = r["test"].split("[")[-1].rstrip("]")
-            for k in ("wall", "trace", "lower", "compile", "programs"):
-                files[key][k] += r.get(k, 0.0)
-            files[key]["tests"] += 1
-    rows = sorted(files.items(), key=lambda kv: -kv[1]["wall"])
     total = defaultdict(float)
-    out = [
+    for r in _records(folder):
+        key = r["test"].split("::")[0]
+        if "test_notebooks" in key:
+            key = r["test"].split("[")[-1].rstrip("]")
+        for part in (files[key], total):
+            for k in ("wall", "trace", "lower", "compile", "programs"):
+                part[k] += r.get(k, 0.0)
+            part["tests"] += 1
+    rows = sorted(files.items(), key=lambda kv: -kv[1]["wall"])
+    head = (
         f"{'file':44s} {'tests':>5s} {'wall':>7s} {'trace':>6s} {'lower':>6s} "
         f"{'compile':>7s} {'progs':>5s}"
-    ]
-    for name, v in rows:
-        for k, x in v.items():
-            total[k] += x
-        out.append(
-            f"{name[-44:]:44s} {int(v['tests']):5d} {v['wall']:7.1f} {v['trace']:6.1f} "
-            f"{v['lower']:6.1f} {v['compile']:7.1f} {int(v['programs']):5d}"
-        )
-    out.append(
-        f"{'total':44s} {int(total['tests']):5d} {total['wall']:7.1f} {total['trace']:6.1f} "
-        f"{total['lower']:6.1f} {total['compile']:7.1f} {int(total['programs']):5d}"
     )
-    return "\n".join(out)
+    return "\n".join([head, *(_row(name, v) for name, v in rows), _row("total", total)])
 
 
 def programs(folder: Path, top: int = 30) -> str:
     """The programs that took longest to compile, by name: count and seconds."""
     by = defaultdict(lambda: [0, 0.0])
-    for path in folder.glob("*.jsonl"):
-        for line in path.read_text().splitlines():
-            for name, sec in json.loads(line).get("big", []):
-                by[name][0] += 1
-                by[name][1] += sec
+    for r in _records(folder):
+        for name, sec in r.get("big", []):
+            by[name][0] += 1
+            by[name][1] += sec
     rows = sorted(by.items(), key=lambda kv: -kv[1][1])[:top]
     return "\n".join(f"{n:6d} {s:7.1f}  {name}" for name, (n, s) in rows)
 
