@@ -4,6 +4,7 @@ solve (against central finite differences of fixed-step solves), implicit static
 import itertools
 import math
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -96,6 +97,31 @@ def test_design_space_rejects_bad_box():
         DesignSpace(tpl, [1, 1, 1, 1], [2, 0.5, 2, 2])
     with pytest.raises(ValueError, match="shape"):
         DesignSpace(tpl, [1, 1, 1], [2, 2, 2])
+
+
+def test_gradient_mode_forward_for_a_few_coordinates_on_fixed_steps():
+    """gradient="auto" differentiates forward (one tangent per coordinate through
+    diffrax's ForwardMode) for fixed steps and at most FORWARD_UP_TO coordinates, in
+    reverse otherwise or where an adjoint is given; only the gradient's solve changes its
+    adjoint."""
+    from jaxchain._design.objective import FORWARD_UP_TO
+
+    kw = dict(t1=2 * PERIOD, t_start=PERIOD)
+    fwd = ProfileObjective(SPACE, _build, dt=4e-6, **kw)
+    assert fwd.gradient == "forward" and SPACE.size <= FORWARD_UP_TO
+    assert isinstance(fwd._grad_config.options.adjoint, diffrax.ForwardMode)
+    assert fwd.config.options.adjoint is None  # the value's solve is left as it was
+    assert ProfileObjective(SPACE, _build, **kw).gradient == "reverse"  # adaptive steps
+    given = diffrax.RecursiveCheckpointAdjoint()
+    assert ProfileObjective(SPACE, _build, dt=4e-6, adjoint=given, **kw).gradient == "reverse"
+    wide = jc.FreeformProfile.from_iso(jc.ToothProfile.iso606(CHAIN, Z, "mid"), 1)
+    r = float(wide.seating_radius) * np.ones(Z)
+    per_gap = DesignSpace.select(wide, {"seating_radius": (r - 1e-5, r + 1e-5)})
+    assert per_gap.size == Z > FORWARD_UP_TO
+    assert ProfileObjective(per_gap, _build, dt=4e-6, **kw).gradient == "reverse"
+    assert ProfileObjective(per_gap, _build, dt=4e-6, gradient="forward", **kw).gradient == (
+        "forward"
+    )
 
 
 # ------------------------------------------------------------------ smooth peak

@@ -306,6 +306,17 @@ BAD = [
     (lambda: objective(sprocket=-1), ValueError, "sprocket must be an integer >= 0"),
     (lambda: objective(combine="min"), ValueError, "combine must be one of 'mean', 'max'"),
     (lambda: objective(throw="yes"), TypeError, "throw must be True or False"),
+    (lambda: objective(gradient="both"), ValueError, "gradient must be one of 'auto'"),
+    (
+        lambda: objective(gradient="forward", adjoint=diffrax.RecursiveCheckpointAdjoint()),
+        ValueError,
+        "is a reverse-mode one",
+    ),
+    (
+        lambda: objective(gradient="reverse", adjoint=diffrax.ForwardMode()),
+        ValueError,
+        "cannot run through diffrax.ForwardMode",
+    ),
     (lambda: objective(t1=NAN), ValueError, "t1 must be a finite number > 0"),
     (lambda: objective().value(jnp.zeros(3)), ValueError, r"u must have shape \(4,\)"),
     (lambda: objective().value(jnp.array([NAN, 0, 0, 0])), ValueError, "u must be finite"),

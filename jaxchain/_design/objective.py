@@ -7,6 +7,7 @@ import math
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
+import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -257,6 +258,27 @@ def _member_grad(u, space, scene, jac, cfg):
     return grad, out
 
 
+def _forward(f):
+    """``f(u, *args) -> (value, aux)`` as ``((value, aux), ∇value)`` by forward mode: one
+    tangent per coordinate of ``u``, all carried by one vmapped solve (the primal is
+    computed once)."""
+
+    def value_and_grad(u, *args):
+        at = lambda d: jax.jvp(lambda u: f(u, *args), (u,), (d,))  # noqa: E731
+        basis = jnp.eye(u.shape[0], dtype=u.dtype)
+        (value, aux), (slopes, _) = jax.vmap(at, out_axes=((None, None), 0))(basis)
+        return (value, aux), slopes
+
+    return value_and_grad
+
+
+def _member_grad_forward(u, space, scene, jac, cfg):
+    """:func:`_member_grad` by forward mode."""
+    one = lambda u: (lambda o: (o.value, o))(_member(u, space, scene, jac, cfg))  # noqa: E731
+    (_, out), grad = _forward(one)(u)
+    return grad, out
+
+
 def _combined(values, grads, cfg):
     """The objective and its gradient from every member's value and gradient (the
     chain rule through :func:`_combine`)."""
@@ -268,12 +290,18 @@ def _combined(values, grads, cfg):
 # shares one compiled function
 # (and across processes: jaxchain._programs)
 _value = stored("jaxchain.design.value")(eqx.filter_jit(_loss))
-_value_and_grad = stored("jaxchain.design.value_and_grad")(
-    eqx.filter_jit(eqx.filter_value_and_grad(_loss, has_aux=True))
-)
+_value_and_grad = {
+    "reverse": stored("jaxchain.design.value_and_grad")(
+        eqx.filter_jit(eqx.filter_value_and_grad(_loss, has_aux=True))
+    ),
+    "forward": stored("jaxchain.design.value_and_grad.forward")(eqx.filter_jit(_forward(_loss))),
+}
 # across processes: each process's share of the members, per member; combined after
 _members = eqx.filter_jit(eqx.filter_vmap(_member, in_axes=_MEMBER_AXES))
-_members_grad = eqx.filter_jit(eqx.filter_vmap(_member_grad, in_axes=_MEMBER_AXES))
+_members_grad = {
+    "reverse": eqx.filter_jit(eqx.filter_vmap(_member_grad, in_axes=_MEMBER_AXES)),
+    "forward": eqx.filter_jit(eqx.filter_vmap(_member_grad_forward, in_axes=_MEMBER_AXES)),
+}
 _combine_jit = eqx.filter_jit(_combine)
 _combined_jit = eqx.filter_jit(_combined)
 # the members' statics Jacobians at their settled starts, outside the differentiated
@@ -284,6 +312,37 @@ _jacobians = eqx.filter_jit(
         in_axes=(eqx.if_array(0), None),
     )
 )
+
+
+#: design coordinates up to which ``gradient="auto"`` differentiates by forward mode (fixed
+#: steps). Measured on the 08B engagement objective (2 tooth periods at 4 µs, one member,
+#: 2-core CPU, one core): reverse mode compiles in 20–28 s and runs in 1.12 s; forward
+#: mode compiles in 11–13 s whatever the coordinate count and runs in 0.63 s with 4
+#: coordinates, 1.08 s with 8 and 3.1 s with 32.
+FORWARD_UP_TO = 8
+
+
+def _gradient_mode(gradient: str, space: DesignSpace, options: SolveOptions) -> str:
+    """ "forward" or "reverse" for ``gradient`` ("auto", "forward", "reverse")."""
+    checks.choice("gradient", gradient, ("auto", "forward", "reverse"))
+    adjoint = options.adjoint
+    forward_adjoint = isinstance(adjoint, diffrax.ForwardMode)
+    if gradient == "forward" and not (adjoint is None or forward_adjoint):
+        raise ValueError(
+            f"gradient='forward' carries tangents through the solve with "
+            f"diffrax.ForwardMode; the options' adjoint {type(adjoint).__name__} is a "
+            "reverse-mode one: drop it, or use gradient='reverse'"
+        )
+    if gradient == "reverse" and forward_adjoint:
+        raise ValueError(
+            "gradient='reverse' cannot run through diffrax.ForwardMode: drop the adjoint, "
+            "or use gradient='forward'"
+        )
+    if gradient != "auto":
+        return gradient
+    if forward_adjoint or (adjoint is None and options.fixed and space.size <= FORWARD_UP_TO):
+        return "forward"
+    return "reverse"
 
 
 class ProfileObjective:
@@ -341,6 +400,11 @@ class ProfileObjective:
         combine: "mean" or "max" over the members.
         throw: raise when a member fails (see above).
         sharding: None, or "auto": members shared among the processes (see above).
+        gradient: "forward" (one tangent per coordinate, carried through the solve by
+            ``diffrax.ForwardMode``), "reverse" (through the solve's adjoint), or "auto":
+            forward for fixed steps and at most :data:`FORWARD_UP_TO` coordinates
+            (compiles in about 40 % less time than reverse and runs as fast or faster
+            there), reverse otherwise.
         options, **solve_options: as in :func:`~jaxchain.simulate` (``dt=`` for fixed
             steps).
     """
@@ -362,6 +426,7 @@ class ProfileObjective:
         combine: str = "mean",
         throw: bool = True,
         sharding: str | None = None,
+        gradient: str = "auto",
         options: SolveOptions | None = None,
         **solve_options,
     ):
@@ -410,6 +475,16 @@ class ProfileObjective:
             take_up=float(take_up),
             combine=combine,
         )
+        self.gradient = _gradient_mode(gradient, space, self.config.options)
+        # the forward gradient's solve carries the tangents through diffrax's own loop
+        self._grad_config = self.config
+        if self.gradient == "forward":
+            self._grad_config = eqx.tree_at(
+                lambda c: c.options.adjoint,
+                self.config,
+                diffrax.ForwardMode(),
+                is_leaf=lambda x: x is None,
+            )
         self.evaluations = 0  # forward simulations run (ensemble members count each)
 
     def scenes(self, u) -> Scene | dist.LocalMembers:
@@ -444,7 +519,7 @@ class ProfileObjective:
     def _across(self, u, local, jacs, sp, grad: bool):
         """Value (and gradient) from this process's share: per member, gathered."""
         if grad:
-            grads, out = _members_grad(u, self.space, local, jacs, self.config)
+            grads, out = _members_grad[self.gradient](u, self.space, local, jacs, self._grad_config)
         else:
             grads, out = None, _members(u, self.space, local, jacs, self.config)
         grads, out = dist.gather((grads, out), rows=sp.members)
@@ -505,6 +580,8 @@ class ProfileObjective:
         if sp is not None:
             value, grad, out = self._across(u, local, jacs, sp, grad=True)
         else:
-            (value, out), grad = _value_and_grad(u, self.space, local, jacs, self.config)
+            (value, out), grad = _value_and_grad[self.gradient](
+                u, self.space, local, jacs, self._grad_config
+            )
         value, grad = self._checked(value, grad, out)
         return value, grad, out
