@@ -152,21 +152,23 @@ def cost_of(
     seed: int = 0,
     dt: float = DT,
     obj: ProfileObjective | None = None,
-    checkpointed: ProfileObjective | None = None,
+    others: dict[str, ProfileObjective] | None = None,
 ) -> dict:
     """Value and value + gradient of ``obj`` (default: :func:`objective` over ``space``
-    with steps of ``dt``); with ``checkpointed`` (the same objective differentiated with
-    every step checkpointed) also its value + gradient, timed interleaved with the
-    others, and how far its gradient lies from ``obj``'s."""
+    with steps of ``dt``); for each of ``others`` (the same objective differentiated
+    another way, e.g. ``{"checkpointed": checkpointed(space)}``) also its value +
+    gradient, timed interleaved with the rest, and how far its gradient lies from
+    ``obj``'s (row keys suffixed with the name)."""
     obj = objective(space, dt=dt) if obj is None else obj
+    others = others or {}
     u = jnp.asarray(np.random.default_rng(seed).normal(0.0, 0.3, space.size))
     scenes = obj.scenes(u)
     calls = {
         "value": lambda: obj.value_on(u, scenes)[0],
         "value_and_grad": lambda: obj.value_and_grad_on(u, scenes)[:2],
     }
-    if checkpointed is not None:
-        calls["value_and_grad_checkpointed"] = lambda: checkpointed.value_and_grad_on(u, scenes)[1]
+    for name, other in others.items():
+        calls[f"value_and_grad_{name}"] = lambda o=other: o.value_and_grad_on(u, scenes)[1]
     first, best, out = {}, {}, {}
     for key, call in calls.items():  # compile (the results kept for the row)
         t = time.perf_counter()
@@ -178,6 +180,7 @@ def cost_of(
     value, grad = out["value_and_grad"]
     row = {
         "dimension": space.size,
+        "gradient": obj.gradient,
         "value_s": best["value"],
         "value_and_grad_s": best["value_and_grad"],
         "ratio": best["value_and_grad"] / best["value"],
@@ -187,13 +190,13 @@ def cost_of(
         "grad_norm": float(jnp.linalg.norm(grad)),
         "grad_finite": bool(np.all(np.isfinite(np.asarray(grad)))),
     }
-    if checkpointed is not None:
-        other = out["value_and_grad_checkpointed"]
+    for name in others:
+        key = f"value_and_grad_{name}"
         row |= {
-            "value_and_grad_checkpointed_s": best["value_and_grad_checkpointed"],
-            "ratio_checkpointed": best["value_and_grad_checkpointed"] / best["value"],
-            "first_value_and_grad_checkpointed_s": first["value_and_grad_checkpointed"],
-            "grad_difference_checkpointed": float(jnp.linalg.norm(other - grad))
+            f"{key}_s": best[key],
+            f"ratio_{name}": best[key] / best["value"],
+            f"first_{key}_s": first[key],
+            f"grad_difference_{name}": float(jnp.linalg.norm(out[key] - grad))
             / float(jnp.linalg.norm(grad)),
         }
     return row

@@ -16,8 +16,10 @@ gradient-free method or finite differences pay per parameter. Measured here, in 
 * for each: the wall time of the value alone and of value + gradient (the least of
   ``repeats`` warm calls, interleaved; compile excluded), their ratio, and the compile
   times; the gradient by the default fixed-step adjoint (every step's residuals kept,
-  :class:`jaxchain.StepResidualsAdjoint`) and by diffrax's checkpointing of every step
-  (each step run forward again on the way back), with the difference of the two.
+  :class:`jaxchain.StepResidualsAdjoint`), by diffrax's checkpointing of every step
+  (each step run forward again on the way back) and by forward mode (one tangent per
+  coordinate, all carried by one vmapped solve: ``ProfileObjective(gradient="forward")``),
+  with each one's difference from the first.
 
 A value+gradient then counts as ``ratio`` simulations when methods are compared on one
 simulation budget (issue "design that pays": the ratio should stay ≤ 4 and flat in the
@@ -40,7 +42,7 @@ from benchmarks.common import (  # noqa: E402
     parse,
     parser,
 )
-from benchmarks.designs import checkpointed, cost_of, spaces  # noqa: E402
+from benchmarks.designs import checkpointed, cost_of, objective, spaces  # noqa: E402
 
 
 def chart(results: dict, path) -> None:
@@ -62,6 +64,9 @@ def chart(results: dict, path) -> None:
     if "ratio_checkpointed" in rows[0]:
         ax.plot(dims, [r["ratio_checkpointed"] for r in rows], "s--", color="tab:orange",
                 label="reverse mode, every step checkpointed")  # fmt: skip
+    if "ratio_forward" in rows[0]:
+        ax.plot(dims, [r["ratio_forward"] for r in rows], "^-", color="tab:blue",
+                label="forward mode, one tangent per coordinate")  # fmt: skip
     ax.plot(dims, [d + 1 for d in dims], "--", color="0.5", label="forward differences (n + 1)")
     ax.axhline(4, color="k", lw=0.8, ls=":")
     ax.set_xscale("log")
@@ -87,13 +92,22 @@ def main(argv=None) -> dict:
     for name, space in spaces().items():
         if name not in picks:
             continue
-        row = cost_of(space, repeats, checkpointed=checkpointed(space))
+        others = {
+            "checkpointed": checkpointed(space),
+            "forward": objective(space, gradient="forward"),
+        }
+        obj = objective(space, gradient="reverse")
+        row = cost_of(space, repeats, obj=obj, others=others)
         rows.append(row)
         print(
             f"dimension {row['dimension']:3d}: value {row['value_s']:.3f} s, value+grad "
             f"{row['value_and_grad_s']:.3f} s, ratio {row['ratio']:.2f} (every step "
-            f"checkpointed: {row['ratio_checkpointed']:.2f}, gradients differ by "
-            f"{row['grad_difference_checkpointed']:.1e})",
+            f"checkpointed: {row['ratio_checkpointed']:.2f}; forward mode: "
+            f"{row['ratio_forward']:.2f}; gradients differ by "
+            f"{row['grad_difference_checkpointed']:.1e} and {row['grad_difference_forward']:.1e}); "
+            f"compile: value {row['first_value_s']:.1f} s, reverse "
+            f"{row['first_value_and_grad_s']:.1f} s, forward "
+            f"{row['first_value_and_grad_forward_s']:.1f} s",
             flush=True,
         )
     results = {

@@ -223,6 +223,16 @@ def _load(folder: Path, key: str):
         return None
 
 
+def _device(leaves) -> tuple:
+    """The device the arrays are on (the first committed one's, else the first's), and
+    whether any is committed to it."""
+    arrays = [x for x in leaves if isinstance(x, jax.Array)]
+    committed = [x for x in arrays if x.committed]
+    for x in committed or arrays:
+        return next(iter(x.devices())), bool(committed)
+    return jax.devices()[0], False
+
+
 def stored(name: str):
     """Decorate a jitted function of arrays and static data: its concrete calls run a
     program exported to (and read back from) :func:`store_folder`, traced once across
@@ -251,10 +261,25 @@ def stored(name: str):
                         _save(folder, key, *found)
                     except Exception:  # unwritable folder, no flatbuffers: kept in memory
                         pass
-                exported, skeleton = found
-                entry = _MEMORY[key] = (jax.jit(exported.call), skeleton)
-            run, skeleton = entry
-            return _fill(skeleton, run(leaves))
+                entry = _MEMORY[key] = (*found, {})
+            exported, skeleton, runs = entry
+            device, committed = _device(leaves)
+            run = runs.get(device)
+            if run is None:
+                # placed explicitly: otherwise a call whose arrays are committed to the
+                # device (jax.device_put, or an earlier read-back program's outputs)
+                # lowers to another program than one whose arrays are not, and compiles
+                # again
+                sharding = jax.sharding.SingleDeviceSharding(device)
+                run = runs[device] = jax.jit(exported.call, in_shardings=sharding)
+            out = run(leaves)
+            if not committed and device.platform == "cpu":
+                # a read-back program's outputs are committed to its device, an ordinary
+                # call's are not where its arguments were not: handed back uncommitted
+                # (on the CPU a copy in memory), what consumes them compiles as it would
+                # after the ordinary call, not once more for committed arguments
+                out = [jnp.asarray(np.asarray(v)) for v in out]
+            return _fill(skeleton, out)
 
         return call
 

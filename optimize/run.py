@@ -484,7 +484,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
 
 
 METHODS = {
-    "gradient": "gradient (optax, reverse-mode gradients through the solve)",
+    "gradient": "gradient (optax, gradients by automatic differentiation through the solve)",
     "nelder_mead": "Nelder-Mead (scipy, forward solves only)",
 }
 

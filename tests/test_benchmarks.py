@@ -82,7 +82,10 @@ def test_gradient_cost_benchmark_quick(tmp_path):
     res = main(["--quick", "--out", str(tmp_path)])
     assert [r["dimension"] for r in res["rows"]] == [4, 72]
     for r in res["rows"]:
-        assert r["grad_finite"] and r["ratio"] > 1.0
+        assert r["grad_finite"] and r["ratio"] > 1.0 and r["gradient"] == "reverse"
+        # the three ways to the gradient agree (checkpointed: the same discrete gradient;
+        # forward mode: the same derivative, rounded otherwise)
+        assert r["grad_difference_checkpointed"] < 1e-6 and r["grad_difference_forward"] < 1e-6
     assert (tmp_path / "gradient_cost.png").stat().st_size > 10_000
 
 

@@ -53,6 +53,18 @@ def test_read_back_without_tracing_equal_bit_for_bit(store, monkeypatch):
     # the same types whether traced here or read back (a read-back program returns no
     # weak types, so neither does the first call)
     assert (first["one"].dtype, first["one"].weak_type) == (again["one"].dtype, False)
+    # arrays committed to the device (jax.device_put) run the same compiled program
+    compiles = []
+    listen = lambda event, *_, **__: compiles.append(event)  # noqa: E731
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        committed = run(jax.device_put(x + 1.0, jax.devices()[0]), (1, 2, 3))
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert "/jax/core/compile/backend_compile_duration" not in compiles
+    np.testing.assert_array_equal(committed["sum"], again["sum"])
+    # committed where the ordinary call's would be: only where an argument was
+    assert committed["sum"].committed and not again["sum"].committed
     run(x, (1, 2))  # another constant: another program
     run(jnp.zeros(3), (1, 2, 3))  # another shape: another program
     assert len(traced) == 3 and len(list(store.iterdir())) == 3

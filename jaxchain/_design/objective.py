@@ -316,10 +316,12 @@ _jacobians = eqx.filter_jit(
 
 #: design coordinates up to which ``gradient="auto"`` differentiates by forward mode (fixed
 #: steps). Measured on the 08B engagement objective (2 tooth periods at 4 µs, one member,
-#: 2-core CPU, one core): reverse mode compiles in 20–28 s and runs in 1.12 s; forward
+#: one core of a 2-core CPU): reverse mode compiles in 20–28 s and runs in 1.12 s; forward
 #: mode compiles in 11–13 s whatever the coordinate count and runs in 0.63 s with 4
-#: coordinates, 1.08 s with 8 and 3.1 s with 32.
-FORWARD_UP_TO = 8
+#: coordinates, 1.08 s with 8 and 3.1 s with 32. On ``python -m optimize``'s default
+#: objective (7 coordinates, 6 members in 3 speed groups, longer strands) forward mode ran
+#: 27–28 s per iteration against 18–23 s in reverse.
+FORWARD_UP_TO = 4
 
 
 def _gradient_mode(gradient: str, space: DesignSpace, options: SolveOptions) -> str:
