@@ -421,8 +421,19 @@ def _compile_row(fid, links, t1, kw):
         scene = eqx.tree_at(lambda s: s.sprockets[0].profile.seating_radius, scene, r)
         return peak(scene)
 
+    def tangent(r, scene):  # d peak / d r by forward mode: the solve carries the tangent
+        traces["tangent"] += 1
+
+        def at(r):
+            moved = eqx.tree_at(lambda s: s.sprockets[0].profile.seating_radius, scene, r)
+            return jc.simulate(moved, t1, adjoint=diffrax.ForwardMode(), **kw).peak_contact_force
+
+        return jax.jvp(at, (r,), (jnp.ones_like(r),))
+
+    traces["tangent"] = 0
     fwd = eqx.filter_jit(forward)
     grad = eqx.filter_jit(jax.grad(objective))
+    jvp = eqx.filter_jit(tangent)
     r0 = sc.sprockets[0].profile.seating_radius
     # new values, same structure: a heavier load, a new seating radius
     heavier = sc.sprockets[1].load_torque * 2
@@ -431,6 +442,7 @@ def _compile_row(fid, links, t1, kw):
     for name, call, again in (
         ("forward", lambda: fwd(sc), lambda: fwd(sc2)),
         ("gradient", lambda: grad(r0, sc), lambda: grad(r0 * 1.001, sc2)),
+        ("tangent", lambda: jvp(r0, sc), lambda: jvp(r0 * 1.001, sc2)),
     ):
         t = time.perf_counter()
         out = block(call())
@@ -442,15 +454,21 @@ def _compile_row(fid, links, t1, kw):
         row[f"compile_{name}_s"] = first - warm
         row[f"{name}_warm_s"] = warm
         row[f"{name}_retraced"] = traces[name] != n
-        row[f"{name}_finite"] = bool(np.isfinite(out) and np.isfinite(out2))
-    row["retraced"] = row["forward_retraced"] or row["gradient_retraced"]
+        row[f"{name}_finite"] = bool(np.all(np.isfinite(out)) and np.all(np.isfinite(out2)))
+    row["retraced"] = row["forward_retraced"] or row["gradient_retraced"] or row["tangent_retraced"]
+    # the same derivative both ways (d peak / d r: reverse mode's gradient, forward's tangent)
+    g, (_, t) = block(grad(r0, sc)), block(jvp(r0, sc))
+    row["gradient_value"], row["tangent_value"] = float(g), float(t)
+    row["tangent_vs_gradient"] = float(abs(t - g) / max(abs(g), 1e-300))
     row["target_forward_met"] = row["compile_forward_s"] <= TARGETS["compile_forward_s"]
     row["target_gradient_met"] = row["compile_gradient_s"] <= TARGETS["compile_gradient_s"]
     print(
         f"  {fid:10s} {links} links ({sc.n_bodies} bodies): compile forward "
         f"{row['compile_forward_s']:.1f} s (target ≤ {TARGETS['compile_forward_s']:.0f}), "
         f"gradient {row['compile_gradient_s']:.1f} s (target ≤ "
-        f"{TARGETS['compile_gradient_s']:.0f}); retraced on a second call: "
+        f"{TARGETS['compile_gradient_s']:.0f}), forward-mode derivative "
+        f"{row['compile_tangent_s']:.1f} s (d peak / d r {row['tangent_value']:.6g} N/m, "
+        f"reverse mode's {row['gradient_value']:.6g}); retraced on a second call: "
         f"{row['retraced']}",
         flush=True,
     )
@@ -477,9 +495,16 @@ def compile_study(fidelities, links):
 def main(argv=None):
     ap = parser(__doc__)
     ap.add_argument("--sharding-worker", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument(
+        "--compile-only",
+        action="store_true",
+        help="(e) alone, written to ensembles_compile.json",
+    )
     args = parse(ap, argv)
     if args.sharding_worker:
         return sharding_worker(args.sharding_worker)
+    if args.compile_only:
+        return compile_only(args)
     quick = args.quick
     t_start = time.perf_counter()
     results = {
@@ -530,6 +555,26 @@ def main(argv=None):
     (args.out / "ensembles.json").write_text(json.dumps(results, indent=1))
     _chart(results, args.out / "ensembles.png")
     print(f"wrote {args.out / 'ensembles.json'} and ensembles.png ({results['wall_s']:.0f} s)")
+    return results
+
+
+def compile_only(args) -> dict:
+    """(e) alone (``--compile-only``): ``ensembles_compile.json``, no chart."""
+    t_start = time.perf_counter()
+    links = 50 if args.quick else 200
+    results = {
+        "command": "python -m benchmarks.ensembles --compile-only"
+        + (" --quick" if args.quick else ""),
+        "machine": machine(),
+        "versions": {"jax": jax.__version__, "jaxchain": jc.__version__},
+    }
+    print(f"(e) compile time of simulate and its derivatives, {links}-link drive:", flush=True)
+    fidelities = ("lumped",) if args.quick else ("lumped", "clearance")
+    results["compile"] = compile_study(fidelities, links)
+    results["machine"]["loadavg_end"] = loadavg()
+    results["wall_s"] = time.perf_counter() - t_start
+    (args.out / "ensembles_compile.json").write_text(json.dumps(results, indent=1))
+    print(f"wrote {args.out / 'ensembles_compile.json'} ({results['wall_s']:.0f} s)")
     return results
 
 

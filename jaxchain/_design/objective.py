@@ -315,12 +315,11 @@ _jacobians = eqx.filter_jit(
 
 
 #: design coordinates up to which ``gradient="auto"`` differentiates by forward mode (fixed
-#: steps). Measured on the 08B engagement objective (2 tooth periods at 4 µs, one member,
-#: one core of a 2-core CPU): reverse mode compiles in 20–28 s and runs in 1.12 s; forward
-#: mode compiles in 11–13 s whatever the coordinate count and runs in 0.63 s with 4
-#: coordinates, 1.08 s with 8 and 3.1 s with 32. On ``python -m optimize``'s default
-#: objective (7 coordinates, 6 members in 3 speed groups, longer strands) forward mode ran
-#: 27–28 s per iteration against 18–23 s in reverse.
+#: steps). Forward mode costs about half a value solve per coordinate, reverse mode about
+#: four whatever the count (``benchmarks/gradient_cost.py``, the 08B engagement objective:
+#: value + gradient 2.9× the value forward against 3.9× in reverse at 4 coordinates, 24×
+#: against 4.4× at 36). On ``python -m optimize``'s default objective (7 coordinates, 6
+#: members) forward mode ran 27–28 s per iteration against 18–23 s in reverse.
 FORWARD_UP_TO = 4
 
 
@@ -405,8 +404,7 @@ class ProfileObjective:
         gradient: "forward" (one tangent per coordinate, carried through the solve by
             ``diffrax.ForwardMode``), "reverse" (through the solve's adjoint), or "auto":
             forward for fixed steps and at most :data:`FORWARD_UP_TO` coordinates
-            (compiles in about 40 % less time than reverse and runs as fast or faster
-            there), reverse otherwise.
+            (faster to compile and to run there), reverse otherwise.
         options, **solve_options: as in :func:`~jaxchain.simulate` (``dt=`` for fixed
             steps).
     """
