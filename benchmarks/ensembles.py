@@ -3,6 +3,7 @@ sharding across devices, gradient cost, compile times.
 
     python -m benchmarks.ensembles            # full study (~20 min on 2 shared cores)
     python -m benchmarks.ensembles --quick    # smoke run (a few minutes)
+    python -m benchmarks.ensembles --compile-only   # (e) alone → ensembles_compile.json
 
 Writes ``benchmarks/results/ensembles.json`` and ``ensembles.png``. Every number is
 measured in this run (the machine is shared: loadavg is recorded at start and end;
@@ -19,9 +20,10 @@ compare ratios, not seconds). Timings are warm (compile apart) and the minimum o
     own while loop) against one device, in a subprocess (XLA_FLAGS must precede jax);
 (d) gradient over forward cost of an ensemble objective (mean peak force over members,
     fixed steps) in the driver's seating radius, with a finite-difference check;
-(e) compile time of ``simulate`` and of its gradient for a 200-link drive (lumped,
-    clearance; ``--quick``: 50 links, lumped), and that a second call with new values
-    does not retrace.
+(e) compile time of ``simulate``, of its reverse-mode gradient and of its forward-mode
+    derivative (``jax.jvp`` through ``diffrax.ForwardMode``) for a 200-link drive
+    (lumped, clearance; ``--quick``: 50 links, lumped), and that a second call with new
+    values does not retrace.
 """
 
 from __future__ import annotations

@@ -88,6 +88,7 @@ def main(argv=None) -> dict:
     start = time.perf_counter()
     repeats = 3 if args.quick else 9
     picks = ("4", "72") if args.quick else ("4", "36", "72")
+    machine = machine_info()  # the load average at the start
     rows = []
     for name, space in spaces().items():
         if name not in picks:
@@ -114,7 +115,7 @@ def main(argv=None) -> dict:
         "study": "gradient_cost",
         "command": "python -m benchmarks.gradient_cost" + (" --quick" if args.quick else ""),
         "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        "machine": machine,
         "repeats": repeats,
         "rows": rows,
     }
