@@ -207,11 +207,11 @@ def test_two_processes_match_one(tmp_path):
     assert runs[0]["built"] == [0, 1, 2] and runs[1]["built"] == [3, 4]
     for r in runs:
         assert r["processes"] == 2 and r["devices"] == 2 and r["n_devices"] == 2
-        # complete on every process: all 5 members, in order, padding dropped
-        np.testing.assert_allclose(r["peak"], ref["peak"], rtol=1e-12, atol=0)
-        # the saved forces: a vmapped batch's width (3 rows here, groups of 1-2 in one
-        # process) changes the floating-point schedule of its members, which the
-        # impacts amplify (measured: 1.2e-11 of the largest force, one member)
+        # complete on every process: all 5 members, in order, padding dropped. A vmapped
+        # batch's width (3 rows here, groups of 1-2 in one process) changes the
+        # floating-point schedule of its members, which the impacts amplify (measured:
+        # 3.2e-11 of member 0's peak; 1.2e-11 of the largest saved force, one member)
+        np.testing.assert_allclose(r["peak"], ref["peak"], rtol=1e-9, atol=0)
         f, f_ref = np.asarray(r["force"]), np.asarray(ref["force"])
         assert np.max(np.abs(f - f_ref)) <= 1e-9 * np.max(np.abs(f_ref))
         assert r["steps"] == ref["steps"] == [300, 800, 1400, 2000, 600]
