@@ -251,11 +251,15 @@ def _loss(u, space, scenes, jacs, cfg):
     return _combine(out.value, cfg), out
 
 
+def _member_valued(u, space, scene, jac, cfg):
+    """One member's value and its :class:`Observed` (the value differentiated)."""
+    out = _member(u, space, scene, jac, cfg)
+    return out.value, out
+
+
 def _member_grad(u, space, scene, jac, cfg):
     """One member's value's gradient in ``u``, and its :class:`Observed`."""
-    grad, out = jax.grad(lambda u: (lambda o: (o.value, o))(_member(u, space, scene, jac, cfg)),
-                         has_aux=True)(u)  # fmt: skip
-    return grad, out
+    return jax.grad(_member_valued, has_aux=True)(u, space, scene, jac, cfg)
 
 
 def _forward(f):
@@ -274,8 +278,7 @@ def _forward(f):
 
 def _member_grad_forward(u, space, scene, jac, cfg):
     """:func:`_member_grad` by forward mode."""
-    one = lambda u: (lambda o: (o.value, o))(_member(u, space, scene, jac, cfg))  # noqa: E731
-    (_, out), grad = _forward(one)(u)
+    (_, out), grad = _forward(_member_valued)(u, space, scene, jac, cfg)
     return grad, out
 
 
