@@ -28,7 +28,7 @@ from .._observers.base import (
 from .._profiles.iso import ToothProfile
 from .._programs import stored
 from .._scene import Scene
-from .._scenes.statics import resettle, statics_jacobian
+from .._scenes.statics import resettle_by_inverse, statics_jacobian
 from .._solve import distributed as dist
 from .._solve.options import SolveOptions, with_options
 from .._solve.result import Result, raise_if_failed
@@ -226,10 +226,10 @@ class _Config(eqx.Module):
     combine: str = eqx.field(static=True)
 
 
-def _member(u, space, scene, jac, cfg):
+def _member(u, space, scene, inverse, cfg):
     k = cfg.sprocket
     scene = eqx.tree_at(lambda s: s.sprockets[k].profile, scene, space.profile(u))
-    scene = resettle(scene, take_up=cfg.take_up, jacobian=jac)
+    scene = resettle_by_inverse(scene, cfg.take_up, inverse)
     return observe(scene, cfg.t1, cfg.objective, options=cfg.options)
 
 
@@ -242,24 +242,24 @@ def _combine(values, cfg):
 
 
 # members: the scenes' array leaves (stack keeps the agreed non-array leaves as they are)
-# and their statics Jacobians
+# and their statics Jacobians' inverses
 _MEMBER_AXES = (None, None, eqx.if_array(0), 0, None)
 
 
-def _loss(u, space, scenes, jacs, cfg):
-    out = eqx.filter_vmap(_member, in_axes=_MEMBER_AXES)(u, space, scenes, jacs, cfg)
+def _loss(u, space, scenes, inverses, cfg):
+    out = eqx.filter_vmap(_member, in_axes=_MEMBER_AXES)(u, space, scenes, inverses, cfg)
     return _combine(out.value, cfg), out
 
 
-def _member_valued(u, space, scene, jac, cfg):
+def _member_valued(u, space, scene, inverse, cfg):
     """One member's value and its :class:`Observed` (the value differentiated)."""
-    out = _member(u, space, scene, jac, cfg)
+    out = _member(u, space, scene, inverse, cfg)
     return out.value, out
 
 
-def _member_grad(u, space, scene, jac, cfg):
+def _member_grad(u, space, scene, inverse, cfg):
     """One member's value's gradient in ``u``, and its :class:`Observed`."""
-    return jax.grad(_member_valued, has_aux=True)(u, space, scene, jac, cfg)
+    return jax.grad(_member_valued, has_aux=True)(u, space, scene, inverse, cfg)
 
 
 def _forward(f):
@@ -276,9 +276,9 @@ def _forward(f):
     return value_and_grad
 
 
-def _member_grad_forward(u, space, scene, jac, cfg):
+def _member_grad_forward(u, space, scene, inverse, cfg):
     """:func:`_member_grad` by forward mode."""
-    (_, out), grad = _forward(_member_valued)(u, space, scene, jac, cfg)
+    (_, out), grad = _forward(_member_valued)(u, space, scene, inverse, cfg)
     return grad, out
 
 
@@ -308,7 +308,9 @@ _members_grad = {
 _combine_jit = eqx.filter_jit(_combine)
 _combined_jit = eqx.filter_jit(_combined)
 # the members' statics Jacobians at their settled starts, outside the differentiated
-# function: compiled once per scene structure, shared by the value and the gradient
+# function: compiled once per scene structure, shared by the value and the gradient;
+# inverted on the host (:meth:`ProfileObjective._prepared`), so that the differentiated
+# programs hold no LAPACK call and run side by side in threads
 _jacobians = eqx.filter_jit(
     eqx.filter_vmap(
         lambda scene, take_up: statics_jacobian(scene, take_up=take_up),
@@ -514,17 +516,20 @@ class ProfileObjective:
 
     def _prepared(self, scenes) -> tuple[Scene, dist.Split | None, Array]:
         """This process's scenes (counted as simulations), the split when shared, and the
-        scenes' statics Jacobians."""
+        inverses of the scenes' statics Jacobians."""
         local, sp = self._share(scenes)
         self._count(local, sp.members if sp else int(np.shape(local.q0)[0]))
-        return local, sp, _jacobians(local, self.config.take_up)
+        jacobians = np.asarray(_jacobians(local, self.config.take_up))
+        return local, sp, jnp.asarray(np.linalg.inv(jacobians))
 
-    def _across(self, u, local, jacs, sp, grad: bool):
+    def _across(self, u, local, inverses, sp, grad: bool):
         """Value (and gradient) from this process's share: per member, gathered."""
         if grad:
-            grads, out = _members_grad[self.gradient](u, self.space, local, jacs, self._grad_config)
+            grads, out = _members_grad[self.gradient](
+                u, self.space, local, inverses, self._grad_config
+            )
         else:
-            grads, out = None, _members(u, self.space, local, jacs, self.config)
+            grads, out = None, _members(u, self.space, local, inverses, self.config)
         grads, out = dist.gather((grads, out), rows=sp.members)
         if grad:
             value, grads = _combined_jit(out.value, grads, self.config)
@@ -569,22 +574,22 @@ class ProfileObjective:
         """:meth:`value` on ``scenes`` already built (``self.scenes(u0)``) and held: the
         profile at ``u`` is swapped in and resettled to first order — the same model the
         gradient at ``u0`` sees, for finite-difference checks."""
-        local, sp, jacs = self._prepared(scenes)
+        local, sp, inverses = self._prepared(scenes)
         if sp is not None:
-            value, _, out = self._across(self._u(u), local, jacs, sp, grad=False)
+            value, _, out = self._across(self._u(u), local, inverses, sp, grad=False)
         else:
-            value, out = _value(self._u(u), self.space, local, jacs, self.config)
+            value, out = _value(self._u(u), self.space, local, inverses, self.config)
         return self._checked(value, None, out)[0], out
 
     def value_and_grad_on(self, u, scenes: Scene) -> tuple[Array, Array, Observed]:
         """:meth:`value_and_grad` on ``scenes`` already built (see :meth:`value_on`)."""
-        local, sp, jacs = self._prepared(scenes)
+        local, sp, inverses = self._prepared(scenes)
         u = self._u(u)
         if sp is not None:
-            value, grad, out = self._across(u, local, jacs, sp, grad=True)
+            value, grad, out = self._across(u, local, inverses, sp, grad=True)
         else:
             (value, out), grad = _value_and_grad[self.gradient](
-                u, self.space, local, jacs, self._grad_config
+                u, self.space, local, inverses, self._grad_config
             )
         value, grad = self._checked(value, grad, out)
         return value, grad, out

@@ -411,3 +411,13 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0, jacobian: ArrayLike | No
             f"scene), got shape {jac.shape}"
         )
     return _finish(scene, -jnp.linalg.solve(jac, r))
+
+
+def resettle_by_inverse(scene: Scene, take_up: float, inverse: jax.Array) -> Scene:
+    """:func:`resettle` with the inverse of its Jacobian given (traced code only): the
+    step a matrix product, so the program holds no linear-algebra library call (two such
+    calls executing at once can take every thread of XLA's CPU pool and wait for each
+    other; without one, independent programs run side by side on threads)."""
+    args = _resettle_args(scene, take_up)
+    r = _residual(args[-2], args)
+    return _finish(scene, -(jax.lax.stop_gradient(inverse) @ r))
