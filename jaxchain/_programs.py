@@ -28,6 +28,7 @@ import os
 import pickle
 import sys
 import tempfile
+import threading
 import types
 from importlib import metadata
 from pathlib import Path
@@ -44,6 +45,7 @@ LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax")
 _TRUSTED = ("jaxchain", "diffrax", "equinox", "optimistix", "lineax", "jax", "jaxlib")
 _MEMORY: dict[str, object] = {}  # key -> (jitted call, skeleton), or None: not storable
 _ABSENT = object()
+_LOCKS: dict[str, threading.Lock] = {}  # key -> held while its program is first set up
 
 
 class _Refused(Exception):
@@ -233,6 +235,24 @@ def _device(leaves) -> tuple:
     return jax.devices()[0], False
 
 
+def _prepare(fn, folder: Path, key: str, leaves, treedef, static):
+    """The memory's entry for ``key`` (read back, else traced and saved): (exported
+    program, output skeleton, jitted calls by device), or None where not exportable."""
+    found = _load(folder, key)
+    if found is None:
+        try:
+            found = _export(fn, leaves, treedef, static)
+        except Exception:  # not exportable (e.g. a host callback)
+            _MEMORY[key] = None
+            return None
+        try:
+            _save(folder, key, *found)
+        except Exception:  # unwritable folder, no flatbuffers: kept in memory
+            pass
+    entry = _MEMORY[key] = (*found, {})
+    return entry
+
+
 def stored(name: str):
     """Decorate a jitted function of arrays and static data: its concrete calls run a
     program exported to (and read back from) :func:`store_folder`, traced once across
@@ -244,35 +264,36 @@ def stored(name: str):
         def call(*args):
             folder = store_folder()
             key = None if folder is None else _key(name, args)
-            entry = _MEMORY.get(key, _ABSENT) if key is not None else None
-            if entry is None:  # not storable
+            if key is None or _MEMORY.get(key, _ABSENT) is None:  # not storable
                 return fn(*args)
             dynamic, static = eqx.partition(args, eqx.is_array)
             leaves, treedef = jax.tree_util.tree_flatten(dynamic)
-            if entry is _ABSENT:
-                found = _load(folder, key)
-                if found is None:
-                    try:
-                        found = _export(fn, leaves, treedef, static)
-                    except Exception:  # not exportable (e.g. a host callback)
-                        _MEMORY[key] = None
-                        return fn(*args)
-                    try:
-                        _save(folder, key, *found)
-                    except Exception:  # unwritable folder, no flatbuffers: kept in memory
-                        pass
-                entry = _MEMORY[key] = (*found, {})
-            exported, skeleton, runs = entry
             device, committed = _device(leaves)
-            run = runs.get(device)
+            entry = _MEMORY.get(key, _ABSENT)
+            run = None if entry is _ABSENT else entry[2].get(device)
+            out = None
             if run is None:
-                # placed explicitly: otherwise a call whose arrays are committed to the
-                # device (jax.device_put, or an earlier read-back program's outputs)
-                # lowers to another program than one whose arrays are not, and compiles
-                # again
-                sharding = jax.sharding.SingleDeviceSharding(device)
-                run = runs[device] = jax.jit(exported.call, in_shardings=sharding)
-            out = run(leaves)
+                # first call here: threads calling at once read (or trace) and compile
+                # the program once, the others wait for it
+                with _LOCKS.setdefault(key, threading.Lock()):
+                    entry = _MEMORY.get(key, _ABSENT)
+                    if entry is _ABSENT:
+                        entry = _prepare(fn, folder, key, leaves, treedef, static)
+                    if entry is None:
+                        return fn(*args)
+                    run = entry[2].get(device)
+                    if run is None:
+                        # placed explicitly: otherwise a call whose arrays are committed to
+                        # the device (jax.device_put, or an earlier read-back program's
+                        # outputs) lowers to another program than one whose arrays are
+                        # not, and compiles again
+                        sharding = jax.sharding.SingleDeviceSharding(device)
+                        run = jax.jit(entry[0].call, in_shardings=sharding)
+                        out = run(leaves)  # compiled here, once
+                        entry[2][device] = run
+            skeleton = entry[1]
+            if out is None:
+                out = run(leaves)
             if not committed and device.platform == "cpu":
                 # a read-back program's outputs are committed to its device, an ordinary
                 # call's are not where its arguments were not: handed back uncommitted

@@ -299,9 +299,10 @@ class SpeedGroups:
     one: their values combined as the members of one would be — a soft maximum (``tau``)
     of log-mean-exp values of equal-sized groups is the log-mean-exp of all members, a
     mean of equal-sized means the mean — with the gradient by the same weights. The
-    members' results are concatenated in the groups' order. The groups' solves run
-    ``threads`` at a time (default: one per core, :func:`solve_threads`), with the
-    results of one after the other, bit for bit."""
+    members' results are concatenated in the groups' order. Each group builds, settles
+    and solves its members in a thread of its own, ``threads`` at a time (default: one
+    per core, :func:`solve_threads`), with the results of one after the other, bit for
+    bit."""
 
     def __init__(
         self, groups: list[ProfileObjective], tau: float | None, threads: int | None = None
@@ -327,20 +328,12 @@ class SpeedGroups:
     def _members(outs):
         return jax.tree_util.tree_map(lambda *x: jnp.concatenate(x), *outs)
 
-    def _each(self, u, method: str) -> list:
-        """``group.<method>(u, scenes)`` of every group, in order. The scenes are built here,
-        one group after the other (their statics call LAPACK); the groups' solves, which
-        hold no such call, run side by side, one per core (:func:`solve_all`)."""
-        scenes = [g.scenes(u) for g in self.groups]
-        jobs = list(zip(self.groups, scenes, strict=True))
-        return solve_all(lambda job: getattr(job[0], method)(u, job[1]), jobs, self.threads)
-
     def value(self, u):
-        outs = self._each(u, "value_on")
+        outs = solve_all(lambda g: g.value(u), self.groups, self.threads)
         return self._weights([v for v, _ in outs])[0], self._members([o for _, o in outs])
 
     def value_and_grad(self, u):
-        outs = self._each(u, "value_and_grad_on")
+        outs = solve_all(lambda g: g.value_and_grad(u), self.groups, self.threads)
         value, w = self._weights([v for v, _, _ in outs])
         grad = sum(wi * g for wi, (_, g, _) in zip(w, outs, strict=True))
         return value, grad, self._members([o for _, _, o in outs])

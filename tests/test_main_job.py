@@ -17,23 +17,23 @@ def test_interrupt_then_resume_then_results(tmp_path, monkeypatch):
     interrupted and resumed; the default problem's own pieces are checked below and its
     whole run in the slow test."""
     out = tmp_path / "run"
-    real = ProfileObjective.value_and_grad_on  # what the job's speed groups call
+    real = ProfileObjective.value_and_grad
     calls = []
 
-    def interrupted(self, u, scenes):
+    def interrupted(self, u):
         calls.append(1)
         if len(calls) == 2:  # Ctrl-C during the second iteration
             raise KeyboardInterrupt
-        return real(self, u, scenes)
+        return real(self, u)
 
-    monkeypatch.setattr(ProfileObjective, "value_and_grad_on", interrupted)
+    monkeypatch.setattr(ProfileObjective, "value_and_grad", interrupted)
     with pytest.raises(SystemExit) as e:
         main(["--problem", "iso", "--fast", "--quiet", "--out", str(out)])
     assert e.value.code == 130
     ck = json.loads((out / "checkpoint.json").read_text())
     assert len(ck["history"]) == 1  # the finished iteration was kept
     first = ck["history"][0]
-    monkeypatch.setattr(ProfileObjective, "value_and_grad_on", real)
+    monkeypatch.setattr(ProfileObjective, "value_and_grad", real)
 
     res = main(["--problem", "iso", "--fast", "--quiet", "--out", str(out), "--resume"])
     hist = res["history"]
@@ -259,8 +259,8 @@ def test_speed_groups_combine_as_one_objective_over_all_members():
     """``--horizon own`` solves each speed as its own objective; combined, they are the
     one objective over all members: the soft maximum of equal-sized groups' log-mean-exp
     values is the log-mean-exp of every member (the mean of means the mean), and the
-    gradient follows by the same weights. The groups' solves run side by side in threads,
-    their scenes built in the caller's. Checked on stand-in groups with known members."""
+    gradient follows by the same weights. The groups run side by side in threads.
+    Checked on stand-in groups with known members."""
     import threading
     import time
 
@@ -276,7 +276,7 @@ def test_speed_groups_combine_as_one_objective_over_all_members():
     def lme(v):
         return tau * (jax.nn.logsumexp(v / tau) - jnp.log(v.size))
 
-    built, solved_in = [], set()  # the threads that built the scenes, that solved
+    solved_in = set()  # the threads the groups ran in
 
     class Group:
         evaluations = 0
@@ -287,20 +287,16 @@ def test_speed_groups_combine_as_one_objective_over_all_members():
         def _value(self, v):
             return lme(v) if self.combine == "max" else jnp.mean(v)
 
-        def scenes(self, u):
-            built.append(threading.get_ident())
-            return self.k
-
-        def value_on(self, u, scenes):
+        def value(self, u):
             solved_in.add(threading.get_ident())
             time.sleep(0.05)  # each group's solve long enough for the threads to share them
-            v = members[scenes]
+            v = members[self.k]
             return self._value(v), Observed(v, jnp.zeros(2, int), jnp.ones(2, int))
 
-        def value_and_grad_on(self, u, scenes):
-            v = members[scenes]
-            g = jax.grad(lambda x: self._value(x))(v) @ grads[scenes]
-            return self._value(v), g, self.value_on(u, scenes)[1]
+        def value_and_grad(self, u):
+            v = members[self.k]
+            g = jax.grad(lambda x: self._value(x))(v) @ grads[self.k]
+            return self._value(v), g, self.value(u)[1]
 
     for combine, tau_groups in (("max", tau), ("mean", None)):
         combined = SpeedGroups([Group(k, combine) for k in range(3)], tau_groups, threads=2)
@@ -312,8 +308,7 @@ def test_speed_groups_combine_as_one_objective_over_all_members():
         np.testing.assert_allclose(grad, one_grad @ grads.reshape(6, 2), rtol=1e-12)
         np.testing.assert_array_equal(out.value, flat)  # speeds outer, as operating_points
         assert float(combined.value(jnp.zeros(2))[0]) == float(value)
-    # the scenes built in the caller's thread (their statics call LAPACK), the solves in two
-    assert set(built) == {threading.get_ident()} and len(solved_in) == 2
+    assert len(solved_in) == 2
     combined.evaluations = 42  # a resumed run restores its count
     assert combined.evaluations == 42
 
@@ -355,23 +350,35 @@ def test_remeasurement_solves_side_by_side_are_those_solved_one_by_one():
     assert not re.findall(r"custom_call", solve.lower(scene).as_text())
 
 
-def test_design_programs_hold_no_library_call():
-    """The speed groups' solves run side by side in threads (``SpeedGroups``): what runs
-    there, the statics Jacobians and the design objective's program, holds no custom call
-    (the statics step multiplies by the Jacobian's inverse, inverted on the host)."""
+def test_design_programs_hold_no_library_call(monkeypatch):
+    """The speed groups run side by side in threads (``SpeedGroups``): what runs there —
+    the relaxation settling the scenes, the statics Jacobians, the design objective's
+    program — holds no custom call (the statics step multiplies by the Jacobian's
+    inverse, inverted on the host; the Newton polish, which has LAPACK calls, runs one at
+    a time)."""
     import re
 
     from jaxchain._design import objective as design
+    from jaxchain._scenes import statics
     from optimize.__main__ import fast_settings
     from optimize.problem import Settings, make_problem
     from optimize.run import start_coordinates
 
+    relaxed = []
+    relax = statics._relax
+
+    def spy(*args):
+        relaxed.append(args)
+        return relax(*args)
+
+    monkeypatch.setattr(statics, "_relax", spy)
     problem = make_problem(fast_settings(Settings()))
     objective = problem.make_objective(1000.0)
     group = getattr(objective, "groups", [objective])[0]
     u = start_coordinates(problem)
     scenes, _, inverses = group._prepared(group.scenes(u))
     for program, args in (
+        (relax.__wrapped__, relaxed[0]),
         (design._jacobians, (scenes, group.config.take_up)),
         (design._value.__wrapped__, (u, group.space, scenes, inverses, group.config)),
     ):

@@ -135,3 +135,43 @@ def test_simulate_read_back_equals_the_ordinary_solve(store, monkeypatch):
         jax.tree_util.tree_leaves(read), jax.tree_util.tree_leaves(ordinary), strict=True
     ):
         np.testing.assert_array_equal(a, b)
+
+
+def test_threads_calling_at_once_trace_and_compile_once(store):
+    """Threads calling a stored function for the first time at once (speed groups
+    settling their scenes side by side) wait for one trace and one compile."""
+    import threading
+
+    traced, compiles = [], []
+
+    def slow(x, powers):
+        traced.append(1)
+        return _poly(x, powers)
+
+    def listen(event, *_, **__):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiles.append(event)
+
+    x = jnp.linspace(0.0, 1.0, 5)
+    go = threading.Barrier(4)
+    results = [None] * 4
+
+    def call(i):
+        go.wait()
+        results[i] = run(x, (1, 2))
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        programs.stored("test.poly.alone")(eqx.filter_jit(_poly))(x, (1, 2))  # one-offs
+        before = len(compiles)
+        run = programs.stored("test.poly.threads")(eqx.filter_jit(slow))
+        threads = [threading.Thread(target=call, args=(i,)) for i in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert len(traced) == 1 and len(compiles) - before == 1
+    for r in results:
+        np.testing.assert_array_equal(r["sum"], results[0]["sum"])

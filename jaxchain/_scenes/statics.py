@@ -29,6 +29,7 @@ that moves anything by a pitch or more is rejected.
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 
 import equinox as eqx
@@ -158,6 +159,13 @@ def _solve(scene, force_scale, max_steps, x0, free, take_up):
     # converged means the true forces balance: judge without the regularizing spring
     res = _residual(sol.value, args[:-1] + (0.0,))
     return sol.value, sol.result, jnp.max(jnp.abs(res)) * force_scale
+
+
+# The Newton polish's linear solves are LAPACK calls inside XLA's program: two such
+# programs executing at once (scenes settled in threads) can take every thread of XLA's
+# CPU pool and wait for each other, so they run one at a time. The relaxation, the usual
+# path, holds no such call and runs side by side.
+_LAPACK = threading.Lock()
 
 
 def _free_unknowns(scene, free, take_up):
@@ -302,7 +310,10 @@ def equilibrate(
             break
         dt /= 2
     if not (bool(stable) and float(worst) <= tol):
-        x, _, worst = _solve(scene, fs, max_steps, x if bool(stable) else x0, driven, push)
+        with _LAPACK:  # its linear solves: one such program at a time (below)
+            x, _, worst = jax.block_until_ready(
+                _solve(scene, fs, max_steps, x if bool(stable) else x0, driven, push)
+            )
     moved = float(jnp.max(jnp.abs(x[: 3 * n].reshape(n, 3)[:, :2]))) if n else 0.0
     shifted = float(jnp.max(jnp.abs(x[3 * n + ns : 3 * n + 2 * ns])))
     if not (float(worst) <= tol and max(moved, shifted) < 1.0):  # settles by < a pitch
