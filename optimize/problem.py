@@ -426,23 +426,23 @@ def remeasure(problem: Problem, profile, *, law: str = "johnson", rtol: float | 
 def remeasure_many(
     problem: Problem, designs: list, *, rtol: float | None = None, threads: int | None = None
 ) -> list[dict]:
-    """:func:`remeasure` of each ``(profile, law)`` in ``designs``, in order. The scenes
-    are built (and settled) here, one after the other; their solves, independent of each
-    other, run ``threads`` at a time (default :func:`solve_threads`), each on a core of its
-    own: one XLA solve at a time keeps a second core busy without speeding itself up. The
-    results are those of one solve after the other, bit for bit."""
+    """:func:`remeasure` of each ``(profile, law)`` in ``designs``, in order. Each
+    operating point's scene is built, settled and solved independently of the others,
+    ``threads`` at a time (default :func:`solve_threads`), each on a core of its own: one
+    XLA solve at a time keeps a second core busy without speeding itself up. The results
+    are those of one solve after the other, bit for bit."""
     s = problem.settings
     rtol = s.remeasure_rtol if rtol is None else rtol
     n = min(60_001, max(2001, math.ceil((problem.t1 - problem.t_start) / 0.5e-6) + 1))
     ts = np.linspace(problem.t_start, problem.t1, n)
-    jobs = []  # (design index, speed factor, wear, scene)
+    jobs = []  # (design index, speed factor, wear, profile, roller contact law)
     for i, (profile, law) in enumerate(designs):
         contact = None if law == "johnson" else second_law(problem.chain)
-        for f, e in problem.operating_points:
-            jobs.append((i, f, e, problem.build(profile, f, roller_contact=contact, wear=e)))
+        jobs += [(i, f, e, profile, contact) for f, e in problem.operating_points]
 
     def solve(job):
-        _, f, e, scene = job
+        _, f, e, profile, contact = job
+        scene = problem.build(profile, f, roller_contact=contact, wear=e)
         sol = jc.simulate(
             scene,
             problem.t1,
