@@ -355,7 +355,7 @@ def test_design_programs_hold_no_library_call(monkeypatch):
     the relaxation settling the scenes, the statics Jacobians, the design objective's
     program — holds no custom call (the statics step multiplies by the Jacobian's
     inverse, inverted on the host; the Newton polish, which has LAPACK calls, runs one at
-    a time)."""
+    a time). Lowered only, from the relaxation's arguments (caught before it runs)."""
     import re
 
     from jaxchain._design import objective as design
@@ -364,19 +364,25 @@ def test_design_programs_hold_no_library_call(monkeypatch):
     from optimize.problem import Settings, make_problem
     from optimize.run import start_coordinates
 
+    class Caught(Exception):
+        pass
+
     relaxed = []
-    relax = statics._relax
 
-    def spy(*args):
+    def caught(*args):
         relaxed.append(args)
-        return relax(*args)
+        raise Caught
 
-    monkeypatch.setattr(statics, "_relax", spy)
+    relax = statics._relax
+    monkeypatch.setattr(statics, "_relax", caught)
     problem = make_problem(fast_settings(Settings()))
-    objective = problem.make_objective(1000.0)
-    group = getattr(objective, "groups", [objective])[0]
+    group = problem.make_objective(1000.0).groups[0]
     u = start_coordinates(problem)
-    scenes, _, inverses = group._prepared(group.scenes(u))
+    with pytest.raises(Caught):
+        group.scenes(u)
+    scene, x0 = relaxed[0][0], relaxed[0][2]  # a member at rest, the statics unknowns
+    scenes = jc.scenes.stack([scene])
+    inverses = jnp.zeros((1, x0.size, x0.size))
     for program, args in (
         (relax.__wrapped__, relaxed[0]),
         (design._jacobians, (scenes, group.config.take_up)),
