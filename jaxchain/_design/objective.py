@@ -308,13 +308,16 @@ _members_grad = {
 _combine_jit = eqx.filter_jit(_combine)
 _combined_jit = eqx.filter_jit(_combined)
 # the members' statics Jacobians at their settled starts, outside the differentiated
-# function: compiled once per scene structure, shared by the value and the gradient;
+# function: compiled once per scene structure (stored: once across processes and
+# threads), shared by the value and the gradient;
 # inverted on the host (:meth:`ProfileObjective._prepared`), so that the differentiated
 # programs hold no LAPACK call and run side by side in threads
-_jacobians = eqx.filter_jit(
-    eqx.filter_vmap(
-        lambda scene, take_up: statics_jacobian(scene, take_up=take_up),
-        in_axes=(eqx.if_array(0), None),
+_jacobians = stored("jaxchain.design.jacobians")(
+    eqx.filter_jit(
+        eqx.filter_vmap(
+            lambda scene, take_up: statics_jacobian(scene, take_up=take_up),
+            in_axes=(eqx.if_array(0), None),
+        )
     )
 )
 
