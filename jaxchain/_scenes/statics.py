@@ -370,6 +370,12 @@ def _resettle_args(scene: Scene, take_up) -> tuple:
     return (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
 
 
+def _start_residual(scene: Scene, take_up) -> tuple:
+    """:func:`_resettle_args` and the residual there (unknowns zero)."""
+    args = _resettle_args(scene, take_up)
+    return args, _residual(args[-2], args)
+
+
 def _check(scene, take_up) -> None:
     """A Scene, and a take-up >= 0 where it is concrete."""
     checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
@@ -413,8 +419,7 @@ def resettle(scene: Scene, *, take_up: ArrayLike = 0.0, jacobian: ArrayLike | No
     the derivative there is the same).
     """
     _check(scene, take_up)
-    args = _resettle_args(scene, take_up)
-    r = _residual(args[-2], args)
+    args, r = _start_residual(scene, take_up)
     jac = _jacobian(args) if jacobian is None else jax.lax.stop_gradient(jnp.asarray(jacobian))
     if jac.shape != (r.size, r.size):
         raise ValueError(
@@ -429,6 +434,5 @@ def resettle_by_inverse(scene: Scene, take_up: float, inverse: jax.Array) -> Sce
     step a matrix product, so the program holds no linear-algebra library call (two such
     calls executing at once can take every thread of XLA's CPU pool and wait for each
     other; without one, independent programs run side by side on threads)."""
-    args = _resettle_args(scene, take_up)
-    r = _residual(args[-2], args)
+    _, r = _start_residual(scene, take_up)
     return _finish(scene, -(jax.lax.stop_gradient(inverse) @ r))
