@@ -5,13 +5,15 @@ tight re-measurement with the nominal and the second contact law, and the robust
 model's options.
 
 Studies: ``gradient_cost``, ``methods``, ``pattern_remeasure``, ``pattern_design``,
-``design_fidelity``.
+``design_fidelity``, ``step_convergence``, ``job_threads`` (the main job's committed run and
+its settings).
 """
 
 from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import jax
 
@@ -24,6 +26,7 @@ import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
 from jaxchain.design import DesignSpace, ProfileObjective  # noqa: E402
+from optimize.problem import Settings  # noqa: E402
 
 LEARNING_RATE = 1.0  # Adam's step in u (the sigmoid coordinate of each box)
 
@@ -34,6 +37,8 @@ T1 = 2 * PERIOD  # the design objective's solve: two tooth periods
 LAW = jc.scenes.roller_law(CHAIN, 0.7, width=3e-6)
 JOINTS = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
 DT = 4e-6  # the fixed step [s]
+# the main job's committed run (python -m optimize on its defaults)
+RUN = Path(__file__).parent / "results" / "optimize_default" / "results.json"
 
 
 def per_gap_space(form: str = "mid", wide: bool = False) -> DesignSpace:
@@ -314,3 +319,14 @@ def suffix(args) -> str:
     member, lr = getattr(args, "member_max", None), getattr(args, "lr", None)
     out += f"_max{member:g}" if member is not None else ""
     return out + (f"_lr{lr:g}" if lr is not None else "")
+
+
+def settings_of(run: dict, dt: float, samples: int, horizon: str = "slowest") -> Settings:
+    """The run's settings (lists back to tuples) with the fixed step ``dt``, the soft
+    peak's ``samples`` and the members' ``horizon``."""
+    s = Settings()
+    for name, value in run["settings"].items():
+        setattr(s, name, tuple(value) if isinstance(value, list) else value)
+    s.dt, s.samples, s.horizon = dt, samples, horizon
+    s.validate()
+    return s

@@ -45,26 +45,15 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks.common import finish, header, parse, parser, shown  # noqa: E402
-from optimize.problem import Settings, make_problem  # noqa: E402
+from benchmarks.designs import RUN, settings_of  # noqa: E402
+from optimize.problem import make_problem  # noqa: E402
 
-RUN = Path(__file__).parent / "results" / "optimize_default" / "results.json"
 # the objective's forms: the soft peak's samples per step, the members' horizon
 FORMS = {
     "integrated": (0, "slowest"),  # by the solver's stages, every member 2 slowest periods
     "sampled": (8, "slowest"),  # trapezoid on 8 parts per step
     "own horizon": (8, "own"),  # sampled, each member 2 of its own periods (the job's)
 }
-
-
-def settings_of(run: dict, dt: float, samples: int, horizon: str = "slowest") -> Settings:
-    """The run's settings (lists back to tuples) with the fixed step ``dt``, the soft
-    peak's ``samples`` and the members' ``horizon``."""
-    s = Settings()
-    for name, value in run["settings"].items():
-        setattr(s, name, tuple(value) if isinstance(value, list) else value)
-    s.dt, s.samples, s.horizon = dt, samples, horizon
-    s.validate()
-    return s
 
 
 def measure(run: dict, steps, points: dict, forms=tuple(FORMS)) -> list[dict]:

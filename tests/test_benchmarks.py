@@ -196,6 +196,21 @@ def test_design_freedoms_reads_both_runs(tmp_path):
 
 
 @pytest.mark.slow
+def test_job_threads_quick(tmp_path):
+    """The threads study's quick run on the main job's default objective: both ways timed,
+    the same value and gradient bit for bit, three speed groups."""
+    from benchmarks.job_threads import main
+
+    res = main(["--quick", "--out", str(tmp_path)])
+    assert res["bit_for_bit"] and res["groups"] == 3
+    assert {(r["way"], r["call"]) for r in res["rows"]} == {
+        (w, c) for w in ("one by one", "threads") for c in ("value_and_grad", "value")
+    }
+    assert all(r["wall_s"] > 0 for r in res["rows"])
+    assert (tmp_path / "job_threads.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
 def test_step_convergence_quick(tmp_path):
     """The step study's quick run (4 and 2 µs at the box middle of the main job's default
     objective in the job's form: sampled soft peak, each member over its own periods):
