@@ -11,6 +11,7 @@ its settings).
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -319,6 +320,18 @@ def suffix(args) -> str:
     member, lr = getattr(args, "member_max", None), getattr(args, "lr", None)
     out += f"_max{member:g}" if member is not None else ""
     return out + (f"_lr{lr:g}" if lr is not None else "")
+
+
+def add_run_option(ap) -> None:
+    """``--run``: the main-job run whose objective a study measures (default :data:`RUN`)."""
+    ap.add_argument("--run", type=Path, default=RUN, help="the main-job run's results.json")
+
+
+def read_run(path: Path) -> dict:
+    """The main-job run's results (``--run``), or an exit saying how to make them."""
+    if not path.exists():
+        raise SystemExit(f"{path} not found: make it with python -m optimize --out <folder>")
+    return json.loads(path.read_text())
 
 
 def settings_of(run: dict, dt: float, samples: int, horizon: str = "slowest") -> Settings:

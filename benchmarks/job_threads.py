@@ -15,7 +15,6 @@ call are recorded, and the two ways' results compared bit for bit. Writes
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -26,7 +25,7 @@ jax.config.update("jax_enable_x64", True)
 import numpy as np  # noqa: E402
 
 from benchmarks.common import finish, header, parse, parser, save_chart, shown  # noqa: E402
-from benchmarks.designs import RUN, settings_of  # noqa: E402
+from benchmarks.designs import add_run_option, read_run, settings_of  # noqa: E402
 from optimize.problem import make_problem, solve_threads  # noqa: E402
 
 WAYS = {"one by one": 1, "threads": None}  # SpeedGroups.threads
@@ -99,12 +98,10 @@ def chart(results: dict, path: Path) -> None:
 
 def main(argv=None) -> dict:
     ap = parser(__doc__, quick_help="one repeat")
-    ap.add_argument("--run", type=Path, default=RUN, help="the main-job run's results.json")
+    add_run_option(ap)
     args = parse(ap, argv)
-    if not args.run.exists():
-        raise SystemExit(f"{args.run} not found: make it with python -m optimize --out <folder>")
+    run = read_run(args.run)
     start = time.perf_counter()
-    run = json.loads(args.run.read_text())
     results = {
         **header("job_threads", argv),
         "run": shown(args.run),

@@ -33,7 +33,6 @@ the solve), which the values do not show. Writes ``step_convergence.json`` and
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -45,7 +44,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks.common import finish, header, parse, parser, shown  # noqa: E402
-from benchmarks.designs import RUN, settings_of  # noqa: E402
+from benchmarks.designs import add_run_option, read_run, settings_of  # noqa: E402
 from optimize.problem import make_problem  # noqa: E402
 
 # the objective's forms: the soft peak's samples per step, the members' horizon
@@ -151,12 +150,10 @@ def chart(results: dict, path: Path) -> None:
 
 def main(argv=None) -> dict:
     ap = parser(__doc__, quick_help="4 and 2 µs at the box middle, the job's form only")
-    ap.add_argument("--run", type=Path, default=RUN, help="the main-job run's results.json")
+    add_run_option(ap)
     args = parse(ap, argv)
-    if not args.run.exists():
-        raise SystemExit(f"{args.run} not found: make it with python -m optimize --out <folder>")
+    run = read_run(args.run)
     start = time.perf_counter()
-    run = json.loads(args.run.read_text())
     size = len(run["gradient_free"]["best_u"])
     points = {"box middle": np.zeros(size)}
     if not args.quick:
