@@ -146,6 +146,19 @@ def test_torque_spectrum_reads_amplitudes_and_band_rms():
     assert rms["0-1 kHz"] < 1e-3
 
 
+def test_the_gradient_cost_is_read_off_the_runs_own_calls():
+    """Medians of the calls after each kind's first (which compiles); None without two."""
+    from optimize.run import call_costs
+
+    c = call_costs([60.0, 6.0, 5.0, 7.0], [14.0, 1.5, 2.5])
+    assert c == {"forward_s": 2.0, "value_and_grad_s": 6.0, "grad_over_forward": 3.0}
+    assert call_costs([60.0], [14.0, 2.0]) == {
+        "forward_s": 2.0,
+        "value_and_grad_s": None,
+        "grad_over_forward": None,
+    }
+
+
 def test_problems_and_their_starts():
     """--problem iso designs in the ISO 606 box from its middle; the default (gentle)
     from the ISO minimum form's seat and flanks in a 7-coordinate free-form box."""
