@@ -35,6 +35,11 @@ from pathlib import Path
 # runtime checks may return NaN rather than call back to Python: computations without a
 # host callback are what XLA's persistent compilation cache keeps (see main()).
 os.environ.setdefault("EQX_ON_ERROR", "nan")
+# XLA's older CPU fusion emitters: a third less compile time, results equal to rounding
+# (a flag of its own in XLA_FLAGS stands; optimize/xla_flags.py)
+from .xla_flags import fast_compile  # noqa: E402  (imports no JAX)
+
+fast_compile()
 
 try:
     import optax  # noqa: F401

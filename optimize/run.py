@@ -113,6 +113,7 @@ def versions() -> dict:
         "platform": platform.platform(),
         "jax": jax.__version__,
         "jax_backend": jax.default_backend(),
+        "xla_flags": os.environ.get("XLA_FLAGS", ""),  # compiler settings change rounding
         "diffrax": diffrax.__version__,
         "equinox": equinox.__version__,
         "optax": optax.__version__,

@@ -12,9 +12,11 @@ os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(CACHE))  # notebook kerne
 # graph); XLA's persistent cache keeps only computations without host callbacks.
 os.environ.setdefault("EQX_ON_ERROR", "nan")
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
-# XLA's older CPU fusion emitters: a third less compile time; each xdist worker on a core
-# of its own (tests/xla_flags.py)
-from xla_flags import fast_compile, pin_worker  # noqa: E402  (imports no JAX)
+# XLA's older CPU fusion emitters, as the main job: a third less compile time
+# (optimize/xla_flags.py); each xdist worker on a core of its own (tests/xla_flags.py)
+from xla_flags import pin_worker  # noqa: E402  (imports no JAX)
+
+from optimize.xla_flags import fast_compile  # noqa: E402  (imports no JAX)
 
 fast_compile()
 pin_worker()

@@ -1,10 +1,13 @@
-"""The test suite's XLA flag (tests/xla_flags.py)."""
+"""The XLA flag of the main job and the test suite (optimize/xla_flags.py), and the test
+workers' cores (tests/xla_flags.py)."""
 
-from xla_flags import FLAG, MEASURED, fast_compile, worker_core
+from xla_flags import worker_core
+
+from optimize.xla_flags import FLAG, MEASURED, fast_compile
 
 
 def test_compile_flag_only_where_measured():
-    """The test suite's XLA flag: added for a measured jaxlib release, kept as the user
+    """The XLA flag: added for a measured jaxlib release, kept as the user
     set it, never duplicated, left out for other releases (an unknown flag aborts XLA)."""
     env = {"XLA_FLAGS": "--xla_dump_to=/tmp/x"}
     assert fast_compile(env, MEASURED[0]) and env["XLA_FLAGS"] == f"--xla_dump_to=/tmp/x {FLAG}"

@@ -1,49 +1,10 @@
-"""What the test suite sets before JAX starts its backend (tests/conftest.py): an XLA
-compiler flag, and each pytest-xdist worker pinned to a core of its own. The library
-itself sets nothing.
-
-XLA's CPU backend with its newer fusion emitters off compiles jaxchain's solves in about
-a third less time at the same run time (jaxlib 0.10.2 on a 2-core CPU: the main job's
-``--fast --problem iso`` run spends 26.5 s instead of 39.5 s in XLA's backend compile;
-the default test run takes 414 s instead of 559 s), with results equal to rounding. An
-unknown flag aborts XLA, so it is set only for the jaxlib versions it was measured on.
-
-The main job does not set it. A design run amplifies rounding through its chaotic
-meshing sequence, so its history is reproduced only with the same compiler settings on
-the same kind of CPU (with the flag, or on another CPU model, the default run's Adam
-objective moves in the fourth digit within ten iterations); its committed results are
-computed with XLA's defaults, and its compile time is a small part of its run.
-"""
+"""What the test suite sets before JAX starts its backend (tests/conftest.py): the main
+job's XLA compiler flag (``optimize/xla_flags.py``), and each pytest-xdist worker pinned
+to a core of its own. The library itself sets nothing."""
 
 from __future__ import annotations
 
 import os
-from importlib import metadata
-
-FLAG = "--xla_cpu_use_fusion_emitters=false"
-MEASURED = ((0, 10),)  # jaxlib (major, minor) releases the flag was measured on
-
-
-def jaxlib_version() -> tuple[int, int] | None:
-    """(major, minor) of the installed jaxlib, or None if it cannot be read."""
-    try:
-        major, minor = metadata.version("jaxlib").split(".")[:2]
-        return int(major), int(minor)
-    except (metadata.PackageNotFoundError, ValueError):
-        return None
-
-
-def fast_compile(environ=os.environ, version: tuple[int, int] | None = None) -> bool:
-    """Add :data:`FLAG` to ``environ["XLA_FLAGS"]`` when jaxlib is a measured release and
-    the flag is not set there already (a user's own choice stands). Call it before JAX's
-    first computation. Returns whether the flag is in effect."""
-    flags = environ.get("XLA_FLAGS", "")
-    if "xla_cpu_use_fusion_emitters" in flags:
-        return FLAG in flags.split()
-    if (jaxlib_version() if version is None else version) not in MEASURED:
-        return False
-    environ["XLA_FLAGS"] = f"{flags} {FLAG}".strip()
-    return True
 
 
 def worker_core(environ, cores: list[int]) -> int | None:
