@@ -46,6 +46,9 @@ _TRUSTED = ("jaxchain", "diffrax", "equinox", "optimistix", "lineax", "jax", "ja
 _MEMORY: dict[str, object] = {}  # key -> (jitted call, skeleton), or None: not storable
 _ABSENT = object()
 _LOCKS: dict[str, threading.Lock] = {}  # key -> held while its program is first set up
+# held while a program is read or traced (re-entrant: a trace may call another stored
+# function); taken before a key's lock, never while holding one
+_TRACING = threading.RLock()
 
 
 class _Refused(Exception):
@@ -273,16 +276,19 @@ def stored(name: str):
             run = None if entry is _ABSENT else entry[2].get(device)
             out = None
             if run is None:
-                # first call here: threads calling at once read (or trace) and compile
-                # the program once, the others wait for it
-                with _LOCKS.setdefault(key, threading.Lock()):
-                    entry = _MEMORY.get(key, _ABSENT)
-                    if entry is _ABSENT:
-                        entry = _prepare(fn, folder, key, leaves, treedef, static)
-                    if entry is None:
-                        return fn(*args)
-                    run = entry[2].get(device)
-                    if run is None:
+                lock = _LOCKS.setdefault(key, threading.Lock())
+                if _MEMORY.get(key, _ABSENT) is _ABSENT:
+                    # read or traced once, by one thread at a time: tracing holds Python's
+                    # lock anyway, and a trace finished first lets its compile (which does
+                    # not hold it) run beside the next thread's trace
+                    with _TRACING, lock:
+                        if _MEMORY.get(key, _ABSENT) is _ABSENT:
+                            _prepare(fn, folder, key, leaves, treedef, static)
+                # compiled once: threads calling at once wait for the first
+                with lock:
+                    entry = _MEMORY[key]
+                    run = None if entry is None else entry[2].get(device)
+                    if entry is not None and run is None:
                         # placed explicitly: otherwise a call whose arrays are committed to
                         # the device (jax.device_put, or an earlier read-back program's
                         # outputs) lowers to another program than one whose arrays are
@@ -291,6 +297,8 @@ def stored(name: str):
                         run = jax.jit(entry[0].call, in_shardings=sharding)
                         out = run(leaves)  # compiled here, once
                         entry[2][device] = run
+                if entry is None:  # not exportable
+                    return fn(*args)
             skeleton = entry[1]
             if out is None:
                 out = run(leaves)

@@ -175,3 +175,43 @@ def test_threads_calling_at_once_trace_and_compile_once(store):
     assert len(traced) == 1 and len(compiles) - before == 1
     for r in results:
         np.testing.assert_array_equal(r["sum"], results[0]["sum"])
+
+
+def test_threads_trace_one_at_a_time_and_compile_side_by_side(store):
+    """Different stored functions called at once from threads are traced one after the
+    other (a trace holds Python's lock anyway; the one finished first compiles, outside
+    it, beside the next trace), each compiled once, with the values of one-by-one calls."""
+    import threading
+    import time
+
+    spans = []  # (start, end) of each trace
+
+    def slow():  # a function of its own each: three programs
+        def f(x, powers):
+            start = time.perf_counter()
+            time.sleep(0.2)  # a long trace (sleeping lets another thread's trace in)
+            out = _poly(x, powers)
+            spans.append((start, time.perf_counter()))
+            return out
+
+        return f
+
+    x = jnp.linspace(0.0, 1.0, 5)
+    runs = [programs.stored(f"test.poly.traces.{i}")(eqx.filter_jit(slow())) for i in range(3)]
+    go = threading.Barrier(3)
+    results = [None] * 3
+
+    def call(i):
+        go.wait()
+        results[i] = runs[i](x, (1, 2))
+
+    threads = [threading.Thread(target=call, args=(i,)) for i in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    spans.sort()
+    assert len(spans) == 3
+    assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:], strict=False)), spans
+    for r in results:
+        np.testing.assert_array_equal(r["sum"], _poly(x, (1, 2))["sum"])
