@@ -46,8 +46,8 @@ _TRUSTED = ("jaxchain", "diffrax", "equinox", "optimistix", "lineax", "jax", "ja
 _MEMORY: dict[str, object] = {}  # key -> (jitted call, skeleton), or None: not storable
 _ABSENT = object()
 _LOCKS: dict[str, threading.Lock] = {}  # key -> held while its program is first set up
-# held while a program is read or traced (re-entrant: a trace may call another stored
-# function); taken before a key's lock, never while holding one
+# held while a program is read or traced, taken before that key's lock (re-entrant: a
+# trace may call another stored function, which takes it again)
 _TRACING = threading.RLock()
 
 

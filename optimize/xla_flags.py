@@ -1,16 +1,17 @@
 """The XLA compiler flag the main job and the test suite set before JAX starts its
 backend (``optimize/__main__.py``, ``tests/conftest.py``). The library itself sets
-nothing; a notebook or script may call :func:`fast_compile` first thing the same way.
+nothing; a notebook or script gets the same with ``XLA_FLAGS`` set to :data:`FLAG` in
+its environment.
 
 XLA's CPU backend with its newer fusion emitters off compiles jaxchain's solves in about
 a third less time at the same run time, with results equal to rounding (jaxlib 0.10.2 on
 a 2-core CPU: the main job's ``--fast --problem iso`` run spends 26.5 s instead of 39.5 s
 in XLA's backend compile; the default test run takes 414 s instead of 559 s; the default
 ``python -m optimize`` spends 83 s instead of 139 s in XLA's compile, summed over its
-threads, its Adam history equal to the fourth decimal of a newton and its delivered
-design to 1e-9 relative; only the clearance-chain re-measurement, whose rattling rollers carry
-rounding into other engagement sequences, moves within its confidence interval). An
-unknown flag aborts XLA, so it is set only for the jaxlib versions it was measured on.
+threads, with its Adam history equal to the fourth decimal of a newton and its delivered
+design to 1e-9 relative; only the clearance-chain re-measurement, whose rattling rollers
+carry rounding into other engagement sequences, moves within its confidence interval).
+An unknown flag aborts XLA, so it is set only for the jaxlib versions it was measured on.
 """
 
 from __future__ import annotations

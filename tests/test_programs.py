@@ -180,7 +180,7 @@ def test_threads_calling_at_once_trace_and_compile_once(store):
 def test_threads_trace_one_at_a_time_and_compile_side_by_side(store):
     """Different stored functions called at once from threads are traced one after the
     other (a trace holds Python's lock anyway; the one finished first compiles, outside
-    it, beside the next trace), each compiled once, with the values of one-by-one calls."""
+    it, beside the next trace), each giving the function's own value."""
     import threading
     import time
 
