@@ -238,8 +238,8 @@ def _device(leaves) -> tuple:
     return jax.devices()[0], False
 
 
-def _prepare(fn, folder: Path, key: str, leaves, treedef, static):
-    """The memory's entry for ``key`` (read back, else traced and saved): (exported
+def _prepare(fn, folder: Path, key: str, leaves, treedef, static) -> None:
+    """Set the memory's entry for ``key`` (read back, else traced and saved): (exported
     program, output skeleton, jitted calls by device), or None where not exportable."""
     found = _load(folder, key)
     if found is None:
@@ -247,13 +247,12 @@ def _prepare(fn, folder: Path, key: str, leaves, treedef, static):
             found = _export(fn, leaves, treedef, static)
         except Exception:  # not exportable (e.g. a host callback)
             _MEMORY[key] = None
-            return None
+            return
         try:
             _save(folder, key, *found)
         except Exception:  # unwritable folder, no flatbuffers: kept in memory
             pass
-    entry = _MEMORY[key] = (*found, {})
-    return entry
+    _MEMORY[key] = (*found, {})
 
 
 def stored(name: str):
