@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 __all__ = [
@@ -20,6 +21,7 @@ __all__ = [
     "parabola_max",
     "cross2",
     "is_concrete",
+    "stack",
 ]
 
 
@@ -27,6 +29,15 @@ def is_concrete(*xs) -> bool:
     """True when no argument is a JAX tracer (so Python-side validation may inspect values)."""
     leaves = jax.tree_util.tree_leaves(xs)
     return not any(isinstance(x, jax.core.Tracer) for x in leaves)
+
+
+def stack(xs, dtype=None) -> Array:
+    """``jnp.stack(xs)`` (in ``dtype``); concrete values are stacked by NumPy and placed
+    on the device once: an eager ``jnp.stack`` compiles a program for every count, shape
+    and dtype."""
+    if not is_concrete(*xs):
+        return jnp.stack([jnp.asarray(x, dtype) for x in xs])
+    return jax.device_put(np.stack([np.asarray(x, dtype) for x in xs]))
 
 
 def cross2(a: Float[Array, "... 2"], b: Float[Array, "... 2"]) -> Float[Array, ...]:

@@ -306,7 +306,8 @@ def stored(name: str):
                 # call's are not where its arguments were not: handed back uncommitted
                 # (on the CPU a copy in memory), what consumes them compiles as it would
                 # after the ordinary call, not once more for committed arguments
-                out = [jnp.asarray(np.asarray(v)) for v in out]
+                # (placed by device_put: jnp.asarray compiles a program per shape)
+                out = [jax.device_put(np.asarray(v)) for v in out]
             return _fill(skeleton, out)
 
         return call

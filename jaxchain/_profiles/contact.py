@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._numerics import stack
 from .base import AbstractProfile, AbstractShape
 from .freeform import FreeformProfile, stack_shapes
 from .iso import ToothProfile
@@ -37,7 +38,7 @@ def gap_shapes(profiles: Sequence[AbstractProfile]):
     kind without a free-form form leaves a tuple of shapes, read one by one."""
     shapes = [p.contact_shape() for p in profiles]
     if _stackable(shapes):
-        return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *shapes)
+        return jax.tree_util.tree_map(lambda *xs: stack(xs), *shapes)
     try:
         arcs = max(p.arcs for p in profiles)
         return stack_shapes([p.freeform(arcs) for p in profiles])

@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._numerics import is_concrete
+from .._numerics import is_concrete, stack
 from .base import AbstractProfile, check_teeth
 from .freeform_shape import Flank, FreeShape, HalfGap, gap_table, half_gap, split_between
 from .pitch_polygon import pitch_polygon
@@ -633,7 +633,7 @@ def stack_shapes(profiles: list[FreeformProfile]) -> FreeShape:
     def field(get, tail):
         xs = [jnp.asarray(get(s)) for s in shapes]
         if all(x.ndim == len(tail) for x in xs):
-            return jnp.stack(xs)
+            return stack(xs)
         out = []
         for x, p in zip(xs, profiles, strict=True):
             x = jnp.broadcast_to(x, (p.teeth,) + tail)

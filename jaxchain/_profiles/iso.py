@@ -24,12 +24,13 @@ from collections.abc import Sequence
 from typing import Literal, NamedTuple
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._chain import ChainSpec, as_chain
-from .._numerics import is_concrete, safe_norm, safe_sqrt
+from .._numerics import is_concrete, safe_norm, safe_sqrt, stack
 from .base import AbstractProfile, AbstractShape, check_teeth
 from .freeform import FreeformProfile
 from .iso_shape import iso_nearest_gap, iso_signed_distance
@@ -246,6 +247,7 @@ def _np_geometry(profile: ToothProfile):
     return tuple(np.asarray(x, dtype=float) for x in g)
 
 
+@jax.jit  # one program for every tooth count and size (called eagerly by the builders)
 def iso_geometry(z, pitch, ri, alpha, re, da) -> ProfileGeometry:
     """Derived points of gap 0's upper half from the profile parameters (see module doc)."""
     ra = da / 2
@@ -377,8 +379,8 @@ class GapShape(AbstractShape):
 
         def field(name):
             dtype = jnp.result_type(profiles[0].pitch)
-            xs = [jnp.asarray(getattr(p, name), dtype=dtype) for p in profiles]
-            return xs[0] if squeeze else jnp.stack(xs)
+            xs = [getattr(p, name) for p in profiles]
+            return jnp.asarray(xs[0], dtype) if squeeze else stack(xs, dtype)
 
         return cls(*(field(f.name) for f in dataclasses.fields(cls)))
 

@@ -25,7 +25,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .._profiles.base import MAX_TEETH, MIN_TEETH
 
@@ -37,6 +36,15 @@ __all__ = [
     "strand_layout",
     "transport_velocity",
 ]
+
+
+def brentq(f, a: float, b: float, **options) -> float:
+    """SciPy's Brent root find on [a, b], SciPy imported at the first call (its import
+    takes 0.2 s, and a strand's layout needs no root find)."""
+    from scipy.optimize import brentq as brent
+
+    return brent(f, a, b, **options)
+
 
 _TOL = 1e-9  # "on a line" / "on the right side" tolerance, relative to the link pitch
 

@@ -37,9 +37,8 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.optimize import brentq
 
-from .layout import LoopLayout, chain_pitch_radius, check_count, check_length, check_teeth
+from .layout import LoopLayout, brentq, chain_pitch_radius, check_count, check_length, check_teeth
 
 __all__ = ["loop_layout"]
 

@@ -11,6 +11,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._numerics import stack as stack_arrays
 from .._scene import Scene
 
 __all__ = ["stack", "take"]
@@ -84,7 +85,7 @@ def stack(scenes: Sequence[Scene]) -> Scene:
                 f"scene {i} does not share scene 0's structure, so they cannot be stacked: {d}"
             )
     return jax.tree_util.tree_map(
-        lambda *xs: jnp.stack(xs) if eqx.is_array(xs[0]) else xs[0], *scenes
+        lambda *xs: stack_arrays(xs) if eqx.is_array(xs[0]) else xs[0], *scenes
     )
 
 
