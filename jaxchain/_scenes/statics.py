@@ -324,7 +324,7 @@ def equilibrate(
             stacklevel=2,
         )
         return moving  # the layout, guides still moving
-    return _finish(moving, x)
+    return _finish_jitted(moving, x)
 
 
 def _finish(scene: Scene, x) -> Scene:
@@ -344,6 +344,11 @@ def _finish(scene: Scene, x) -> Scene:
     for k in range(ns):
         settled = eqx.tree_at(lambda sc, k=k: sc.sprockets[k].angle0, settled, y.theta[k])
     return settled
+
+
+# one program per scene structure for the settled scene (eagerly, its dozens of array
+# operations compiled a small program each)
+_finish_jitted = eqx.filter_jit(_finish)
 
 
 def _at_rest(scene: Scene) -> Scene:
