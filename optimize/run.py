@@ -335,17 +335,17 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         )
         raise
     bar.close()
-    timing["optimization_s"] = timing.get("optimization_s", 0.0) + sum(
-        h["seconds"] for h in history[start:]
-    )
+    adam_seconds = [h["seconds"] for h in history[start:]]  # this process's iterations
+    timing["optimization_s"] = timing.get("optimization_s", 0.0) + sum(adam_seconds)
     best = min(history, key=lambda h: h["objective_N"])
     u_best = jnp.asarray(best["u"])
 
-    # 4. gradient-free baseline: Nelder–Mead on the same objective (forward solves only)
+    # 3. gradient-free baseline: Nelder–Mead on the same objective (forward solves only);
+    # the gradient's cost against a forward solve from both optimizers' calls
     nm = gradient_free(problem, best["objective_N"], settings.baseline_budget, quiet)
-    timing.update(call_costs([h["seconds"] for h in history[start:]], nm.get("call_seconds", [])))
+    timing.update(call_costs(adam_seconds, nm.get("call_seconds", [])))
 
-    # 5. independent re-measurement: Dopri8, tight tolerance, sharp peak, two laws; both
+    # 4. independent re-measurement: Dopri8, tight tolerance, sharp peak, two laws; both
     # optimizers' designs, and the better ISO form
     rt = settings.remeasure_rtol
     log(f"re-measuring: Dopri8 at rtol {rt:.0e}, sharp peak, Johnson and Hertz laws ...", quiet)
