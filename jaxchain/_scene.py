@@ -18,7 +18,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from ._contact.base import AbstractContactLaw
-from ._contact.friction import CoulombFriction
+from ._contact.friction_base import AbstractFrictionLaw
 from ._elements.anchors import Anchors
 from ._elements.base import AbstractElement
 from ._elements.gravity import Gravity
@@ -221,7 +221,7 @@ class Scene(eqx.Module):
     roller_body: Int[Array, " R"]
     roller_offset: Float[Array, "R 2"]
     roller_law: AbstractContactLaw
-    friction: CoulombFriction | None
+    friction: AbstractFrictionLaw | None
     sprockets: tuple[Sprocket, ...]
     anchors: Anchors | None
     joint_friction: JointFriction | None

@@ -12,6 +12,7 @@ from ._contact.base import (
 from ._contact.dahl import DahlFriction as DahlFriction
 from ._contact.flores import Flores as Flores
 from ._contact.friction import CoulombFriction as CoulombFriction
+from ._contact.friction_base import AbstractFrictionLaw as AbstractFrictionLaw
 from ._contact.gonthier import Gonthier as Gonthier
 from ._contact.hunt_crossley import HuntCrossley as HuntCrossley
 from ._contact.johnson import (

@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
-import equinox as eqx
+from typing import ClassVar
+
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from .._numerics import is_concrete
 from .base import check_fields
+from .friction_base import AbstractFrictionLaw
 
 __all__ = ["DahlFriction"]
 
 
-class DahlFriction(eqx.Module):
+class DahlFriction(AbstractFrictionLaw):
     """Coulomb friction with a bristle state (Dahl's model, smoothed, with LuGre's bristle
     damping):
 
@@ -52,6 +54,8 @@ class DahlFriction(eqx.Module):
     creep_velocity: ArrayLike = 1e-4
     damping: ArrayLike = 5e-6
 
+    states_per_contact: ClassVar[int] = 1
+
     def __check_init__(self):
         if not is_concrete(self):
             return
@@ -80,3 +84,9 @@ class DahlFriction(eqx.Module):
         v = jnp.asarray(slip_velocity)
         speed = jnp.sqrt(v * v + jnp.asarray(self.creep_velocity) ** 2)
         return v - speed * jnp.asarray(deflection) / self.presliding
+
+    def traction(self, normal_force, slip_velocity, state):
+        return self.force(normal_force, state, slip_velocity)
+
+    def state_rate(self, state, slip_velocity):
+        return self.rate(state, slip_velocity)

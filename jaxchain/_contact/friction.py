@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
-import equinox as eqx
+from typing import ClassVar
+
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike
 
 from .._numerics import is_concrete
 from .base import check_fields
+from .friction_base import AbstractFrictionLaw
 
 __all__ = ["CoulombFriction"]
 
 
-class CoulombFriction(eqx.Module):
+class CoulombFriction(AbstractFrictionLaw):
     """Regularized Coulomb friction, F_t = −μ·F_n·tanh(v_t / v_s).
 
     Smooth (C^∞) through zero slip; within |v_t| ≲ v_s it behaves like viscous damping
@@ -26,6 +28,8 @@ class CoulombFriction(eqx.Module):
 
     coefficient: ArrayLike = 0.1
     slip_velocity: ArrayLike = 1e-3
+
+    states_per_contact: ClassVar[int] = 0
 
     def __check_init__(self):
         if not is_concrete(self):
@@ -45,3 +49,7 @@ class CoulombFriction(eqx.Module):
             * jnp.asarray(normal_force)
             * jnp.tanh(jnp.asarray(slip_velocity) / self.slip_velocity)
         )
+
+    def traction(self, normal_force, slip_velocity, state=None):
+        del state
+        return self.force(normal_force, slip_velocity)

@@ -6,8 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from .._contact.dahl import DahlFriction
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw, contact_states, flat_rate
 from .._kinematics import perp
 from .._numerics import cross2, smooth_ramp
 from .base import AbstractElement, Effect
@@ -25,8 +24,9 @@ class JointFriction(AbstractElement):
     relative rate Ω = φ̇_after − φ̇_before. The friction moment on the link after is
     M = ``law.force(N·r, r·Ω)`` = −μ·N·r·tanh(r·Ω/v_s), with −M on the link before: the
     pin/bush contact's Coulomb friction at the sliding speed r·Ω of the pin's surface
-    (with a :class:`~jaxchain.contact.DahlFriction` law, M = −μ·N·r·z/x_s, z the joint's
-    pre-sliding state in ``DriveState.bristle``, driven by the sliding speed r·Ω).
+    (any :class:`~jaxchain.contact.AbstractFrictionLaw`: with a
+    :class:`~jaxchain.contact.DahlFriction`, M = −μ·N·r·z/x_s, z the joint's pre-sliding
+    state in ``DriveState.bristle``, driven by the sliding speed r·Ω).
     N is the joint's load, the mean tension of the two links (``link_before``,
     ``link_after``: indices into the tension-carrying elements), its positive part
     smoothed over ±``load_width``. Each moment acts as a couple of forces ±M/ℓ across
@@ -39,12 +39,12 @@ class JointFriction(AbstractElement):
     after: Int[Array, " J"]
     link_before: Int[Array, " J"]
     link_after: Int[Array, " J"]
-    law: CoulombFriction | DahlFriction
+    law: AbstractFrictionLaw
     pin_radius: Float[Array, ""]
     load_width: Float[Array, ""]
 
     def n_states(self, scene) -> int:
-        return int(np.shape(self.joint)[0]) if isinstance(self.law, DahlFriction) else 0
+        return int(np.shape(self.joint)[0]) * self.law.states_per_contact
 
     reads_tension = True  # the link springs' tensions, as the pair elements carry them
 
@@ -57,8 +57,8 @@ class JointFriction(AbstractElement):
     def moments(self, n: int, q, v, tension, state=None):
         """(n, 3) generalized forces of the joints' friction moments, each a couple
         ±M/ℓ²·perp(d) at its link's ends, for the tension-carrying elements' tensions
-        ``tension`` (E,) [N]; and, for a Dahl law, the rate of its states ``state``
-        (else None)."""
+        ``tension`` (E,) [N]; and the rate of its law's states ``state`` (None for a law
+        without states)."""
         xa, xj, xb = q[self.before, :2], q[self.joint, :2], q[self.after, :2]
         va, vj, vb = v[self.before, :2], v[self.joint, :2], v[self.after, :2]
         d1, d2 = xj - xa, xb - xj
@@ -67,12 +67,9 @@ class JointFriction(AbstractElement):
         mean = 0.5 * (tension[self.link_before] + tension[self.link_after])
         load = smooth_ramp(mean, self.load_width)
         r = self.pin_radius
-        if isinstance(self.law, DahlFriction):  # on the link after; −moment before
-            moment = self.law.force(load * r, state, r * rel_rate)
-            rate = self.law.rate(state, r * rel_rate)
-        else:
-            moment = self.law.force(load * r, r * rel_rate)
-            rate = None
+        z = contact_states(self.law, state, int(np.shape(self.joint)[0]))
+        moment = self.law.traction(load * r, r * rel_rate, z)  # on the link after; − before
+        rate = flat_rate(self.law.state_rate(z, r * rel_rate))
         f2 = (moment / l2)[:, None] * perp(d2)
         f1 = (moment / l1)[:, None] * perp(d1)
         gen = jnp.zeros((n, 2), q.dtype)

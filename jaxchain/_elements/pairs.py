@@ -11,8 +11,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from .._contact.base import AbstractContactLaw
-from .._contact.dahl import DahlFriction
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw, contact_states, flat_rate
 from .._contact.stiffness import contact_potential, tangent_stiffness
 from .._kinematics import perp, points, rot, scatter
 from .._numerics import safe_norm, safe_normalize
@@ -55,13 +54,14 @@ class ClearanceJoints(eqx.Module):
     With ``friction``, the contact also carries a tangential force at the contact point,
     against the sliding of the pin's surface (radius ``radius``) on the hole's (radius
     ``radius + clearance``): the joint's friction moment, about μ·T·radius while it
-    articulates. A :class:`~jaxchain.contact.DahlFriction` keeps one pre-sliding state per
-    joint in ``DriveState.bristle``; a :class:`~jaxchain.contact.CoulombFriction` none.
+    articulates. A law with states of its own (``states_per_contact``; one pre-sliding
+    deflection for a :class:`~jaxchain.contact.DahlFriction`) keeps them per joint in
+    ``DriveState.bristle``.
     """
 
     law: AbstractContactLaw
     clearance: Float[Array, ""]
-    friction: CoulombFriction | DahlFriction | None = None
+    friction: AbstractFrictionLaw | None = None
     radius: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.zeros(()))
 
     def tension(self, length, rate, impact_speed):
@@ -116,13 +116,11 @@ class PairGroup(AbstractElement):
         tension = self.element.tension(safe_norm(d), rate, impact_speed)
         return _PairState(tension, u, arm_a, arm_b, vb - va)
 
-    @property
-    def _dahl(self) -> bool:
-        el = self.element
-        return isinstance(el, ClearanceJoints) and isinstance(el.friction, DahlFriction)
-
     def n_states(self, scene) -> int:
-        return self.count if self._dahl else 0
+        el = self.element
+        if not isinstance(el, ClearanceJoints) or el.friction is None:
+            return 0
+        return self.count * el.friction.states_per_contact
 
     def effect(self, t, y, scene, state) -> Effect:
         n = scene.n_bodies
@@ -145,18 +143,15 @@ class PairGroup(AbstractElement):
     def friction_forces(self, n: int, ps: _PairState, v, bristle=None):
         """Generalized forces of a clearance joint's contact friction: the tangential force
         at the contact point (where the pin at a touches the hole around b, on the side
-        −u), against the sliding of the pin's surface on the hole's; and, for a Dahl law,
-        the rate of its states ``bristle`` (else None)."""
+        −u), against the sliding of the pin's surface on the hole's; and the rate of its
+        law's states ``bristle`` (None for a law without states)."""
         el = self.element
         r_pin, r_hole = el.radius, el.radius + el.clearance
         tang = perp(ps.u)
         slip = -jnp.sum(ps.dv * tang, -1) - v[self.a, 2] * r_pin + v[self.b, 2] * r_hole
-        if isinstance(el.friction, DahlFriction):
-            ft = el.friction.force(ps.tension, bristle, slip)[:, None] * tang
-            rate = el.friction.rate(bristle, slip)
-        else:
-            ft = el.friction.force(ps.tension, slip)[:, None] * tang
-            rate = None
+        z = contact_states(el.friction, bristle, self.count)
+        ft = el.friction.traction(ps.tension, slip, z)[:, None] * tang
+        rate = flat_rate(el.friction.state_rate(z, slip))
         on_a = scatter(n, self.a, ps.arm_a - r_pin * ps.u, ft)
         return on_a + scatter(n, self.b, ps.arm_b - r_hole * ps.u, -ft), rate
 

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._contact.base import AbstractContactLaw
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.stiffness import contact_potential, tangent_stiffness
 from .._kinematics import nearest, points, scatter
 from .._numerics import cross2
@@ -84,7 +84,7 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
         if friction is not None:
             tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
             slip = jnp.sum(tang * vrel, -1)
-            f = f + friction.force(fn, slip)[:, None] * tang
+            f = f + friction.traction(fn, slip, None)[:, None] * tang
         torque, pull = jnp.sum(cross2(arm_s, -f)), -jnp.sum(f, axis=0)
         if sel is not None:  # back onto every roller
             f = jnp.zeros_like(xr).at[sel].add(f)
@@ -104,7 +104,7 @@ class RollerTeeth(AbstractElement):
     ``friction`` (None: frictionless). Each roller sees its sprocket's nearest gap."""
 
     law: AbstractContactLaw
-    friction: CoulombFriction | None
+    friction: AbstractFrictionLaw | None
 
     def effect(self, t, y, scene, state) -> Effect:
         rc = roller_contacts(y, scene, self.law, self.friction)

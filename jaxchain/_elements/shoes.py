@@ -24,7 +24,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._contact.base import AbstractContactLaw
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.stiffness import contact_potential, tangent_stiffness
 from .._kinematics import nearest, points, scatter
 from .._numerics import cross2, safe_norm
@@ -67,7 +67,7 @@ class Shoes(AbstractElement):
     half_length: Float[Array, " K"]
     edge: Float[Array, " K"]
     law: AbstractContactLaw
-    friction: CoulombFriction | None
+    friction: AbstractFrictionLaw | None
     n_tensioners: int = eqx.field(static=True)
     slots: int | None = eqx.field(static=True)
 
@@ -204,7 +204,7 @@ def shoe_contacts(y, scene, xr, vr, radius, shoes=None) -> ShoeContacts:
         f = fn[:, None] * n_c
         if friction is not None:
             slip = jnp.sum(t_c * vrel, -1)
-            f = f + friction.force(fn, slip)[:, None] * t_c
+            f = f + friction.traction(fn, slip, None)[:, None] * t_c
         return (
             jnp.zeros_like(xr).at[sel].add(f),
             jnp.zeros(n_r, fn.dtype).at[sel].add(fn),

@@ -24,6 +24,7 @@ from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
 from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.johnson import JohnsonCylinder
 from .._materials import STEEL, Material, effective_modulus
 from .._scene import (
@@ -67,7 +68,7 @@ CLEARANCE_JOINT_FRICTION = DahlFriction(
 )
 
 
-def default_joint_friction(fidelity: str) -> CoulombFriction | DahlFriction:
+def default_joint_friction(fidelity: str) -> AbstractFrictionLaw:
     """The joint friction a builder uses by default (``joint_friction="default"``):
     :data:`JOINT_FRICTION` in the lumped chain, :data:`CLEARANCE_JOINT_FRICTION` in the
     clearance chain."""
@@ -197,7 +198,7 @@ def chain_bodies(
     damping_ratio: float = 0.05,
     pin_law: AbstractContactLaw | None = None,
     bush_law: AbstractContactLaw | None = None,
-    joint_friction: CoulombFriction | DahlFriction | str | None = None,
+    joint_friction: AbstractFrictionLaw | str | None = None,
 ) -> ChainBodies:
     """Bodies and force elements of a chain whose roller centres are ``rollers`` (n, 2),
     ordered along the chain, moving at ``velocities`` (n, 2). See the module docstring.
@@ -326,7 +327,7 @@ def chain_bodies(
 
 
 def _lumped_joint_friction(
-    chain: ChainSpec, n: int, closed: bool, law: CoulombFriction | DahlFriction | None
+    chain: ChainSpec, n: int, closed: bool, law: AbstractFrictionLaw | None
 ) -> JointFriction | None:
     """Joint friction of a lumped chain of ``n`` rollers: a joint at every roller between
     two links (link e runs from roller e to roller e + 1)."""
@@ -357,7 +358,7 @@ def assemble(
     sprockets: tuple[Sprocket, ...],
     anchors: Anchors | None,
     roller_contact: AbstractContactLaw,
-    friction: CoulombFriction | None,
+    friction: AbstractFrictionLaw | None,
     impact_speed: float,
     fidelity: str,
     tensile_strength: float,

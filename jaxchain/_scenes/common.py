@@ -44,27 +44,33 @@ def check_common(
 ) -> float:
     """The arguments every scene builder shares; returns speed_rpm as a float."""
     from .._contact.base import AbstractContactLaw
-    from .._contact.friction import CoulombFriction
+    from .._contact.friction_base import AbstractFrictionLaw
 
     speed = checks.real("speed_rpm", speed_rpm, lo=0.0, lo_open=True, unit="rpm")
     checks.choice("fidelity", fidelity, ("lumped", "clearance", "spans"))
     checks.choice("form", form, ("min", "max", "mid"))
     checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
-    from .._contact.dahl import DahlFriction
-
     if friction is not None:
         checks.instance(
-            "friction", friction, CoulombFriction, "a jc.contact.CoulombFriction or None"
-        )
+            "friction", friction, AbstractFrictionLaw,
+            "a jc.contact.CoulombFriction (any stateless jc.contact.AbstractFrictionLaw) or None",
+        )  # fmt: skip
+        if friction.states_per_contact:
+            raise ValueError(
+                f"friction: the roller/tooth contacts keep no friction states, so a law with "
+                f"states ({type(friction).__name__}) cannot act there; use a stateless law "
+                "such as jc.contact.CoulombFriction, or None"
+            )
     if joint_friction is not None and not (
         isinstance(joint_friction, str) and joint_friction == "default"
     ):
         checks.instance(
             "joint_friction",
             joint_friction,
-            (CoulombFriction, DahlFriction),
-            "a jc.contact.DahlFriction, a jc.contact.CoulombFriction, 'default' (the "
-            "fidelity's default, jc.scenes.joint_friction_default) or None",
+            AbstractFrictionLaw,
+            "a jc.contact.DahlFriction, a jc.contact.CoulombFriction (any "
+            "jc.contact.AbstractFrictionLaw), 'default' (the fidelity's default, "
+            "jc.scenes.joint_friction_default) or None",
         )
     checks.real("impact_speed", impact_speed, lo=0.0, lo_open=True, unit="m/s")
     checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped"))

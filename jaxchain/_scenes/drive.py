@@ -12,8 +12,7 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
-from .._contact.dahl import DahlFriction
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._profiles.freeform import FreeformProfile
@@ -58,8 +57,8 @@ def drive(
     form: Literal["min", "max", "mid"] = "mid",
     profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
     restitution: float = 0.7,
-    friction: CoulombFriction | None = None,
-    joint_friction: CoulombFriction | DahlFriction | str | None = "default",
+    friction: AbstractFrictionLaw | None = None,
+    joint_friction: AbstractFrictionLaw | str | None = "default",
     driven_inertia: float | Sequence[float] | None = None,
     load_ramp: float | None = None,
     impact_speed: float = 1.0,

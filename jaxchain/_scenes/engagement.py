@@ -11,8 +11,7 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
-from .._contact.dahl import DahlFriction
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Anchors, Scene, Sprocket
@@ -47,8 +46,8 @@ def engagement(
     form: Literal["min", "max", "mid"] = "mid",
     profile: ToothProfile | None = None,
     restitution: float = 0.7,
-    friction: CoulombFriction | None = None,
-    joint_friction: CoulombFriction | DahlFriction | str | None = "default",
+    friction: AbstractFrictionLaw | None = None,
+    joint_friction: AbstractFrictionLaw | str | None = "default",
     impact_speed: float = 1.0,
     rollers_on_bush: Literal["joint", "lumped"] = "joint",
     roller_contact: AbstractContactLaw | None = None,

@@ -11,8 +11,7 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
-from .._contact.dahl import DahlFriction
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
@@ -139,8 +138,8 @@ def loop_drive(
     form: str,
     profiles,
     restitution: float,
-    friction: CoulombFriction | None,
-    joint_friction: CoulombFriction | DahlFriction | str | None,
+    friction: AbstractFrictionLaw | None,
+    joint_friction: AbstractFrictionLaw | str | None,
     driven_inertia,
     load_ramp: float | None,
     impact_speed: float,

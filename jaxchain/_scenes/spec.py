@@ -16,8 +16,7 @@ import numpy as np
 
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
-from .._contact.dahl import DahlFriction
-from .._contact.friction import CoulombFriction
+from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.base import AbstractElement
 from .._loads import AbstractLoad
 from .._profiles.base import AbstractProfile
@@ -71,8 +70,8 @@ class _ChainModel:
     form: Literal["min", "max", "mid"] = "mid"
     elongation: float = 0.0
     restitution: float = 0.7
-    friction: CoulombFriction | None = None
-    joint_friction: CoulombFriction | DahlFriction | str | None = "default"
+    friction: AbstractFrictionLaw | None = None
+    joint_friction: AbstractFrictionLaw | str | None = "default"
     impact_speed: float = 1.0
     rollers_on_bush: Literal["joint", "lumped"] = "joint"
     roller_contact: AbstractContactLaw | None = None
