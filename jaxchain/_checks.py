@@ -131,3 +131,22 @@ def fields(module, rules) -> None:
             raise ValueError(f"{owner}.{name} must be {rng} and finite, got {v}")
         if not np.all(ok(v)):
             raise ValueError(f"{owner}.{name} must be {rng}, got {v}")
+
+
+def file_header(data, *, format: str, version: int, what: str, writer: str) -> None:
+    """Raise ``ValueError`` unless ``data`` (a JSON file's content) opens as a jaxchain
+    ``what`` file of ``format``, in a version ≤ ``version`` (``writer``: what writes such
+    files, named in the message)."""
+    if not isinstance(data, dict) or data.get("format") != format:
+        raise ValueError(
+            f'not a jaxchain {what}: expected a JSON object with "format": "{format}" '
+            f"(as {writer} writes)"
+        )
+    found = data.get("version")
+    if isinstance(found, bool) or not isinstance(found, int) or found < 1:
+        raise ValueError(f'"version" must be a positive integer, got {found!r}')
+    if found > version:
+        raise ValueError(
+            f"written in {what} format version {found}, newer than this jaxchain reads (up "
+            f"to {version}); update jaxchain to load it"
+        )

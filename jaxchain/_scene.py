@@ -213,6 +213,11 @@ class Scene(eqx.Module):
         elements: force elements added to the drive's own
             (:class:`jc.elements.AbstractElement <jaxchain.elements.AbstractElement>`;
             :meth:`add_elements`).
+        bush_link: a bush chain's (R, 2) roller indices of the two bushes of the inner
+            link each bush is part of: the bush turns with that link, so it slides on the
+            tooth (the contact's slip includes the link's rotation, and the friction's
+            moment about the bush centre acts on the link); None for a roller chain
+            (the slip is the roller centre's; the roller's own spin is not modelled).
     """
 
     mass: Float[Array, " N"]
@@ -237,6 +242,7 @@ class Scene(eqx.Module):
     shoes: Shoes | None = None
     prepared_shapes: Any = None
     elements: tuple[AbstractElement, ...] = ()
+    bush_link: Int[Array, "R 2"] | None = None
 
     def __check_init__(self):
         for el in self.elements:

@@ -1,4 +1,4 @@
-"""Contact force laws: normal (hysteresis-damped, conformal cylinders) and friction.
+"""Contact force laws: normal (hysteresis-damped, conformal cylinders), friction, oil film.
 
 law = jc.contact.LankaraniNikravesh(stiffness=K, exponent=1.5, restitution=e)
 f = law.normal_force(depth, depth_rate, impact_speed)
@@ -10,6 +10,7 @@ from ._contact.base import (
     hysteresis_restitution as hysteresis_restitution,
 )
 from ._contact.dahl import DahlFriction as DahlFriction
+from ._contact.film_base import AbstractFilmLaw as AbstractFilmLaw
 from ._contact.flores import Flores as Flores
 from ._contact.friction import CoulombFriction as CoulombFriction
 from ._contact.friction_base import AbstractFrictionLaw as AbstractFrictionLaw
@@ -20,6 +21,7 @@ from ._contact.johnson import (
     johnson_dimensionless_force as johnson_dimensionless_force,
 )
 from ._contact.lankarani_nikravesh import LankaraniNikravesh as LankaraniNikravesh
+from ._contact.oil_film import OilFilm as OilFilm
 from ._contact.stiffness import (
     effective_radius as effective_radius,
     hertz_stiffness as hertz_stiffness,

@@ -12,6 +12,10 @@ states) and may add its stored ``energy``, its ``outputs`` (saved by ``simulate`
 
 from ._elements.anchors import Anchors as Anchors
 from ._elements.base import AbstractElement as AbstractElement, Effect as Effect
+from ._elements.cushion import (
+    CushionContacts as CushionContacts,
+    CushionRing as CushionRing,
+)
 from ._elements.gravity import Gravity as Gravity
 from ._elements.joint_friction import JointFriction as JointFriction
 from ._elements.pairs import (

@@ -52,3 +52,13 @@ def test_span_level_drive_defaults_run(rpm):
         sol = jc.simulate(sc, 60.0 / rpm)
         assert sol.ok, sol.message
         assert float(sol.link_tension.min()) > 0
+
+
+@pytest.mark.parametrize("builder", ["engagement", "drive"])
+@pytest.mark.parametrize("rpm", [100.0, 3000.0])
+def test_lubricated_defaults_run(builder, rpm):
+    """The clearance chain with hot engine oil in its joints (the film law's defaults)."""
+    oil = jc.contact.OilFilm(viscosity=0.01)
+    sc = getattr(jc.scenes, builder)(speed_rpm=rpm, fidelity="clearance", lubrication=oil)
+    sol = jc.simulate(sc, _periods(sc, rpm))
+    assert sol.ok and float(sol.peak_contact_force) > 0, sol.message

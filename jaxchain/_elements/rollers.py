@@ -1,4 +1,15 @@
-"""Contact of the rollers with the sprockets' teeth."""
+"""Contact of the rollers (in a bush chain: the bushes) with the sprockets' teeth.
+
+The friction at a contact opposes the slip of the engaging circle's surface over the
+tooth's. A roller chain's slip is the roller centre's velocity relative to the tooth
+surface (the roller's own spin is not modelled). A bush is fixed to its inner link
+(``Scene.bush_link``), so its surface also moves with that link's rotation ω: the slip is
+t·(v_c − v_tooth) − r·ω (t the contact tangent, r the bush radius), and the friction's
+moment −r·F_t about the bush centre acts on the link as a couple on its two bushes,
+±M·d⊥/|d|² (d from one bush to the other): a pure moment M on a rigid link, and on the
+lumped chain's points a pair whose power is exactly M·ω. The link's ω is that of d,
+(d × ḋ)/|d|², in both fidelities.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +23,7 @@ from jaxtyping import Array, Float
 from .._contact.base import AbstractContactLaw
 from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.stiffness import contact_potential, tangent_stiffness
-from .._kinematics import nearest, points, scatter
+from .._kinematics import nearest, perp, points, scatter
 from .._numerics import cross2
 from .._profiles.contact import gap_contact, gap_shapes, prepare_shapes
 from .base import AbstractElement, Effect
@@ -23,7 +34,9 @@ __all__ = ["RollerTeeth", "RollerContacts", "roller_contacts", "prepare"]
 class RollerContacts(NamedTuple):
     """The roller/tooth contacts of one instant."""
 
-    force: Float[Array, "R 2"]  # total contact force on each roller (all sprockets) [N]
+    # total contact force on each roller (all sprockets; a bush chain's with the couples
+    # that carry the friction's moments to the links) [N]
+    force: Float[Array, "R 2"]
     arm: Float[Array, "R 2"]  # roller centre from its body's origin [m]
     normal: Float[Array, "S R"]  # normal force per sprocket and roller [N]
     sprocket_torque: Float[Array, " S"]
@@ -58,6 +71,11 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
     xr, vr, arm_r = points(y.q, y.v, scene.roller_body, scene.roller_offset, cs)
     r = scene.roller_radius
     n_r = xr.shape[0]
+    bush = scene.bush_link is not None
+    if bush:  # each bush turns with its inner link: ω of the line between its two bushes
+        ia, ib = scene.bush_link[:, 0], scene.bush_link[:, 1]
+        d, dv = xr[ib] - xr[ia], vr[ib] - vr[ia]
+        spin_all = cross2(d, dv) / jnp.sum(d * d, -1)
     slots = _contact_slots(scene, n_r)
     shapes = scene.prepared_shapes
     if shapes is None:
@@ -69,9 +87,11 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
         rel_all = xr - centre
         if slots is None:  # every roller: no gather, no scatter (each ~30 ns per roller)
             sel, rel, vsel = None, rel_all, vr
+            spin = spin_all if bush else None
         else:
             sel = nearest(rel_all, slots)[0]
             rel, vsel = rel_all[sel], vr[sel]
+            spin = spin_all[sel] if bush else None
         local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
         depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(shape, local)
         nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
@@ -81,14 +101,25 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
         approach = -jnp.sum(nrm * vrel, -1)
         fn = law.normal_force(depth, approach, scene.impact_speed)
         f = fn[:, None] * nrm
+        moment = None
         if friction is not None:
             tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
             slip = jnp.sum(tang * vrel, -1)
-            f = f + friction.traction(fn, slip, None)[:, None] * tang
+            if bush:  # the bush surface at the contact moves by ω × (−r·n) = −r·ω·t too
+                slip = slip - r * spin
+            ft = friction.traction(fn, slip, None)
+            f = f + ft[:, None] * tang
+            if bush:
+                moment = -r * ft  # about the bush centre: (−r·n) × (F_t·t)
         torque, pull = jnp.sum(cross2(arm_s, -f)), -jnp.sum(f, axis=0)
         if sel is not None:  # back onto every roller
             f = jnp.zeros_like(xr).at[sel].add(f)
             fn = jnp.zeros(n_r, fn.dtype).at[sel].add(fn)
+            if moment is not None:
+                moment = jnp.zeros(n_r, moment.dtype).at[sel].add(moment)
+        if moment is not None:  # the moment onto the bush's link: a couple on its bushes
+            couple = moment[:, None] * perp(d) / jnp.sum(d * d, -1)[:, None]
+            f = f.at[ib].add(couple).at[ia].add(-couple)
         return f, fn, torque, pull
 
     if isinstance(shapes, tuple):  # sprockets of kinds that do not stack: one by one

@@ -11,6 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _checks as checks
 from .freeform import FreeformProfile
 from .freeform_shape import Flank
 from .iso import ToothProfile
@@ -57,19 +58,7 @@ def profile_from_dict(data: dict) -> ToothProfile | FreeformProfile:
         ValueError: not a jaxchain profile, unknown kind, newer format version, missing or
             unknown fields, values that are not numbers, or an invalid profile.
     """
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise ValueError(
-            f'not a jaxchain profile: expected a JSON object with "format": "{FORMAT}" '
-            "(as profile.save writes)"
-        )
-    version = data.get("version")
-    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
-        raise ValueError(f'"version" must be a positive integer, got {version!r}')
-    if version > VERSION:
-        raise ValueError(
-            f"written in profile format version {version}, newer than this jaxchain reads "
-            f"(up to {VERSION}); update jaxchain to load it"
-        )
+    checks.file_header(data, format=FORMAT, version=VERSION, what="profile", writer="profile.save")
     kind = data.get("kind")
     if kind not in KINDS:
         raise ValueError(f"unknown profile kind {kind!r}; known kinds: {', '.join(KINDS)}")

@@ -9,6 +9,13 @@ is a pin/bush revolute clearance joint, and each roller is a body of its own on 
 held by a second (bush/roller) clearance joint. Both joints use Johnson's conformal law.
 With ``rollers="lumped"`` the roller is fixed to its bush instead (its mass and inertia
 added to the roller link): the cheaper variant, compared in ``benchmarks/``.
+
+A bush chain (``ChainSpec.kind == "bush"``) has no roller: its bushes, part of the inner
+(roller) links, engage the teeth. The clearance chain is then the source paper's bushing
+chain, pin links and bushing links joined by pin/bush clearance joints only, each bush's
+circle (d1) in the tooth contact; the lumped chain's points are the bushes, their angle
+unused. Either way a bush turns with its inner link (``ChainBodies.bush_link``), so it
+slides on the tooth where a roller would roll (:mod:`jaxchain._elements.rollers`).
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
+from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction import CoulombFriction
 from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.johnson import JohnsonCylinder
@@ -49,6 +57,7 @@ __all__ = [
     "JOINT_FRICTION",
     "CLEARANCE_JOINT_FRICTION",
     "default_joint_friction",
+    "rollers_on_bush_of",
 ]
 
 #: Friction in the chain's joints (pin/bush, bush/roller): lubricated steel on steel,
@@ -85,6 +94,9 @@ class ChainBodies(NamedTuple):
     v0: np.ndarray
     link_weights: np.ndarray
     joint_friction: JointFriction | None = None
+    #: (R, 2) a bush chain's two bushes (roller indices) of the inner link each bush is
+    #: part of; None for a roller chain (``Scene.bush_link``)
+    bush_link: np.ndarray | None = None
 
 
 def joint_law(
@@ -100,10 +112,8 @@ def joint_law(
     chain = as_chain(chain)
     checks.choice("which", which, ("pin", "roller"))
     estar = effective_modulus(material, material)
-    if which == "pin":
-        clearance, length = chain.pin_clearance, chain.inner_width + 2 * chain.plate_thickness
-    else:
-        clearance, length = chain.roller_clearance, 0.95 * chain.inner_width
+    clearance = chain.pin_clearance if which == "pin" else chain.roller_clearance
+    length = _length(chain, which)
     return JohnsonCylinder(
         clearance=jnp.asarray(clearance),
         length=jnp.asarray(length),
@@ -129,7 +139,9 @@ def roller_law(
 ) -> JohnsonCylinder:
     """Default roller/tooth law: Johnson's cylinder law with a fixed effective clearance,
     the ISO 606 mid seat clearance of this chain (0.005·d1 + 0.0345·∛d1, independent of
-    z and of the profile being designed, so the law never changes with the design).
+    z and of the profile being designed, so the law never changes with the design). In a
+    bush chain d1 is the bush's diameter; the contact length 0.95·b1 is then about the
+    tooth's face width (ISO 606: 0.93·b1 up to p = 12.7 mm), which bounds it there too.
 
     One law over the whole outline keeps the force continuous across the seat/flank
     junction. Johnson's internal law is exact for the (conformal) seat; for the convex
@@ -193,23 +205,31 @@ def chain_bodies(
     closed: bool,
     fidelity: Literal["lumped", "clearance"],
     restitution: float,
-    rollers_on_bush: Literal["joint", "lumped"] = "joint",
+    rollers_on_bush: Literal["joint", "lumped"] | None = None,
     link_load: float = 0.0,
     damping_ratio: float = 0.05,
     pin_law: AbstractContactLaw | None = None,
     bush_law: AbstractContactLaw | None = None,
     joint_friction: AbstractFrictionLaw | str | None = None,
+    lubrication: AbstractFilmLaw | None = None,
 ) -> ChainBodies:
     """Bodies and force elements of a chain whose roller centres are ``rollers`` (n, 2),
     ordered along the chain, moving at ``velocities`` (n, 2). See the module docstring.
+
+    ``rollers_on_bush``: the clearance chain's roller on its own clearance joint
+    (``"joint"``) or fixed to its bush (``"lumped"``); None: the chain's own model
+    (:func:`rollers_on_bush_of`: a roller chain's ``"joint"``, a bush chain's bush in its
+    link).
 
     ``joint_friction``: friction in the joints (None: frictionless joints; ``"default"``:
     :func:`default_joint_friction` of the fidelity). The lumped chain carries it as a
     friction moment between consecutive links (:class:`~jaxchain._scene.JointFriction`,
     pin radius d2/2); the clearance chain at the contacts of its pin/bush and bush/roller
-    joints."""
+    joints. ``lubrication``: an oil film in the clearance chain's joints (None: dry), over
+    the length of each joint's contact (:func:`joint_law`)."""
     if isinstance(joint_friction, str):
         joint_friction = default_joint_friction(fidelity)
+    rollers_on_bush = rollers_on_bush_of(chain, rollers_on_bush)
     rollers = np.asarray(rollers, dtype=float)
     velocities = np.asarray(velocities, dtype=float)
     n = len(rollers)
@@ -218,6 +238,7 @@ def chain_bodies(
     idx = np.arange(n_links)
     nxt = (idx + 1) % n
     zero2 = np.zeros((n_links, 2))
+    bush_link = None if chain.has_roller else _bush_link(n, closed)
     if fidelity == "lumped":
         m = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
         mass = np.full(n, m)
@@ -238,9 +259,14 @@ def chain_bodies(
         )
         q0 = np.column_stack([rollers, np.zeros(n)])
         v0 = np.column_stack([velocities, np.zeros(n)])
+        # a point's angle carries no torque (a roller spins free; a bush turns with its
+        # inner link, whose rotation the points' positions carry): a bush chain's point
+        # gets the inertia of a disc of the bush's radius only to keep that unused
+        # equation finite
+        spin_inertia = chain.roller_inertia if chain.has_roller else m * chain.roller_radius**2 / 2
         return ChainBodies(
             mass=mass,
-            inertia=np.full(n, chain.roller_inertia),
+            inertia=np.full(n, spin_inertia),
             pairs=(springs,),
             roller_body=np.arange(n),
             roller_offset=np.zeros((n, 2)),
@@ -248,6 +274,7 @@ def chain_bodies(
             v0=v0,
             link_weights=np.eye(n_links),
             joint_friction=_lumped_joint_friction(chain, n, closed, joint_friction),
+            bush_link=bush_link,
         )
     if fidelity != "clearance":
         raise ValueError(f"fidelity must be 'lumped' or 'clearance', got {fidelity!r}")
@@ -273,7 +300,9 @@ def chain_bodies(
         b=jnp.asarray(b),
         ra=jnp.asarray(ra),
         rb=jnp.asarray(rb),
-        element=_clearance(pin_law, chain.pin_diameter / 2, joint_friction),
+        element=_clearance(
+            pin_law, chain.pin_diameter / 2, joint_friction, lubrication, _length(chain, "pin")
+        ),
     )
     m_link = np.where(is_roller_link, chain.roller_link_mass, chain.pin_link_mass)
     j_link = np.where(is_roller_link, chain.roller_link_inertia, chain.pin_link_inertia)
@@ -303,7 +332,13 @@ def chain_bodies(
                 b=jnp.asarray(rbody),
                 ra=jnp.asarray(offs),
                 rb=jnp.asarray(np.zeros((n, 2))),
-                element=_clearance(bush_law, chain.bush_diameter / 2, joint_friction),
+                element=_clearance(
+                    bush_law,
+                    chain.bush_diameter / 2,
+                    joint_friction,
+                    lubrication,
+                    _length(chain, "roller"),
+                ),
                 carries_tension=False,
             )
         )
@@ -323,7 +358,41 @@ def chain_bodies(
         q0=q0,
         v0=v0,
         link_weights=_tension_weights(n_links, a, b),
+        bush_link=bush_link,
     )
+
+
+def rollers_on_bush_of(chain: ChainSpec, rollers_on_bush: str | None) -> str:
+    """The clearance chain's roller model for ``chain``: ``rollers_on_bush`` as given, or
+    the chain's own for None (a roller chain's ``"joint"``; a bush chain's ``"lumped"``,
+    its bush part of its link, with no roller mass to add). A bush chain has no roller to
+    put on a joint: ``"joint"`` is refused."""
+    if rollers_on_bush is None:
+        return "joint" if chain.has_roller else "lumped"
+    checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped"))
+    if rollers_on_bush == "joint" and not chain.has_roller:
+        raise ValueError(
+            f"rollers_on_bush='joint': chain {chain.name} is a bush chain (no roller; its bush, "
+            "part of the inner link, engages the teeth), so there is no roller to put on a "
+            "bush/roller joint; leave rollers_on_bush out (None: the chain's own model) or "
+            "give a roller chain"
+        )
+    return rollers_on_bush
+
+
+def _bush_link(n: int, closed: bool) -> np.ndarray:
+    """(n, 2) the two bushes of each bush's inner link: bushes 2k and 2k + 1 share one
+    (the clearance chain's roller links are the even links); an odd last bush of a closed
+    loop shares one with bush 0, of an open strand with the bush before it."""
+    i = np.arange(n)
+    a = i - i % 2
+    b = a + 1
+    last = b >= n
+    if closed:
+        b = np.where(last, 0, b)
+    else:
+        a, b = np.where(last, a - 1, a), np.where(last, a, b)
+    return np.column_stack([a, b])
 
 
 def _lumped_joint_friction(
@@ -346,10 +415,25 @@ def _lumped_joint_friction(
     )
 
 
-def _clearance(law: AbstractContactLaw, radius: float, friction) -> ClearanceJoints:
+def _clearance(
+    law: AbstractContactLaw, radius: float, friction, film=None, length: float = 0.0
+) -> ClearanceJoints:
     return ClearanceJoints(
-        law=law, clearance=law.clearance, friction=friction, radius=jnp.asarray(radius)
+        law=law,
+        clearance=law.clearance,
+        friction=friction,
+        radius=jnp.asarray(radius),
+        film=film,
+        length=jnp.asarray(length),
     )
+
+
+def _length(chain: ChainSpec, which: Literal["pin", "roller"]) -> float:
+    """Axial length of the pin/bush (the bush, between the outer plates) or bush/roller
+    (the roller, 95 % of the inner width) contact [m]."""
+    if which == "pin":
+        return chain.inner_width + 2 * chain.plate_thickness
+    return 0.95 * chain.inner_width
 
 
 def assemble(
@@ -390,4 +474,5 @@ def assemble(
         fidelity=fidelity,
         tensioners=tensioners,
         shoes=shoes,
+        bush_link=None if bodies.bush_link is None else jnp.asarray(bodies.bush_link),
     )

@@ -41,6 +41,7 @@ def check_common(
     roller_contact,
     settle,
     link_damping,
+    lubrication=None,
 ) -> float:
     """The arguments every scene builder shares; returns speed_rpm as a float."""
     from .._contact.base import AbstractContactLaw
@@ -72,8 +73,23 @@ def check_common(
             "jc.contact.AbstractFrictionLaw), 'default' (the fidelity's default, "
             "jc.scenes.joint_friction_default) or None",
         )
+    if lubrication is not None:
+        from .._contact.film_base import AbstractFilmLaw
+
+        checks.instance(
+            "lubrication", lubrication, AbstractFilmLaw,
+            "an oil film of the clearance joints (jc.contact.OilFilm(viscosity=...), any "
+            "jc.contact.AbstractFilmLaw) or None (dry joints)",
+        )  # fmt: skip
+        if fidelity != "clearance":
+            raise ValueError(
+                f"lubrication: an oil film acts in the pin/bush and bush/roller clearance "
+                f"joints of fidelity='clearance'; fidelity={fidelity!r} has no clearance "
+                "joints (use fidelity='clearance', or lubrication=None)"
+            )
     checks.real("impact_speed", impact_speed, lo=0.0, lo_open=True, unit="m/s")
-    checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped"))
+    if rollers_on_bush is not None:  # None: the chain's own (build.rollers_on_bush_of)
+        checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped", None))
     if roller_contact is not None:
         checks.instance(
             "roller_contact",

@@ -12,13 +12,15 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
+from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction_base import AbstractFrictionLaw
+from .._elements.cushion import CushionContacts, CushionRing, as_cushions
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._profiles.freeform import FreeformProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Scene, Sprocket
-from .build import assemble, chain_bodies, roller_law
+from .build import assemble, chain_bodies, roller_law, rollers_on_bush_of
 from .common import (
     as_gravity,
     as_load,
@@ -59,10 +61,11 @@ def drive(
     restitution: float = 0.7,
     friction: AbstractFrictionLaw | None = None,
     joint_friction: AbstractFrictionLaw | str | None = "default",
+    lubrication: AbstractFilmLaw | None = None,
     driven_inertia: float | Sequence[float] | None = None,
     load_ramp: float | None = None,
     impact_speed: float = 1.0,
-    rollers_on_bush: Literal["joint", "lumped"] = "joint",
+    rollers_on_bush: Literal["joint", "lumped"] | None = None,
     roller_contact: AbstractContactLaw | None = None,
     settle: bool = True,
     link_damping: float = 0.05,
@@ -70,6 +73,7 @@ def drive(
     guides: Sequence[Guide] = (),
     gravity: float | Sequence[float] | None = None,
     shoe_contact: AbstractContactLaw | None = None,
+    cushion: Sequence[CushionRing | None] | None = None,
 ) -> Scene:
     """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
     ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``; or,
@@ -138,7 +142,13 @@ def drive(
         form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
         profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
         restitution: coefficient of restitution of every contact at ``impact_speed``.
-        friction: roller/tooth friction (None: frictionless).
+        friction: roller/tooth friction (None: frictionless), any stateless
+            ``jc.contact.AbstractFrictionLaw``. A bush chain's bush, fixed to its link,
+            slides on the tooth: its slip includes the link's rotation
+            (``jaxchain._elements.rollers``); lubricated steel is about
+            ``jc.contact.CoulombFriction(0.1, slip_velocity=1e-2)``, whose regularization
+            damps a light link's rotation with a time constant of microseconds (fine for
+            adaptive solves; fixed-step design solves need a wider ``slip_velocity``).
         joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
             clearance fidelity); ``"default"``: lubricated steel on steel, μ = 0.1
             (``jc.scenes.JOINT_FRICTION`` in the lumped chain,
@@ -147,11 +157,18 @@ def drive(
             the spans' transverse vibration: without it the spans' mean tension
             climbs to several times the static (``python -m
             benchmarks.archive.tension_climb``).
+        lubrication: an oil film in the clearance chain's pin/bush and bush/roller joints
+            (``jc.contact.OilFilm(viscosity=0.01)``: hot engine oil), beside their dry
+            contact, which still acts where the film breaks down; None: dry joints.
+            ``fidelity="clearance"`` only.
         driven_inertia: [kg·m²], of every driven sprocket or one per driven sprocket;
             default a steel disc of the pitch diameter.
         impact_speed: reference impact speed of the history-free damping [m/s].
         rollers_on_bush: clearance fidelity: roller as its own body on a clearance joint
-            ("joint") or fixed to its bush ("lumped").
+            ("joint") or fixed to its bush ("lumped"); None (default): the chain's own
+            model, "joint" for a roller chain; a bush chain (ISO 606 04C, 06C) has no
+            roller, its bush is part of its inner link ("lumped" means the same for it,
+            "joint" is refused).
         roller_contact: roller/tooth law (default :func:`~jaxchain.scenes.roller_law`).
         link_damping: damping ratio of the lumped links (0: undamped).
         settle: start from the static equilibrium of the layout (see
@@ -164,6 +181,10 @@ def drive(
             settled start then hangs the chain under its weight.
         shoe_contact: roller/shoe normal law of every tensioner shoe and guide (default
             :func:`~jaxchain.scenes.shoe_law`: polyamide face).
+        cushion: cushion rings, one entry per sprocket in the order of ``teeth``, each a
+            :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>` or None
+            (e.g. ``(ring, None)``: a ring on the driver); None: no rings. The links'
+            plates press on them, in the settled start too. Not in ``"spans"``.
     """
     chain = as_chain(chain)
     elongation = checks.real(
@@ -181,8 +202,15 @@ def drive(
         roller_contact=roller_contact,
         settle=settle,
         link_damping=link_damping,
+        lubrication=lubrication,
     )
     gravity = as_gravity(gravity)
+    rollers_on_bush = rollers_on_bush_of(chain, rollers_on_bush)
+    if cushion is not None and fidelity == "spans":
+        raise ValueError(
+            "cushion: fidelity='spans' has no links for a cushion ring's plates to press on; "
+            "use fidelity='lumped' or 'clearance' with cushion rings (or cushion=None)"
+        )
     if fidelity == "spans":
         return _spans(
             chain, teeth, centres, centre_distance, outside, take_up_sprocket, n_links,
@@ -234,6 +262,7 @@ def drive(
             restitution=restitution,
             friction=friction,
             joint_friction=joint_friction,
+            lubrication=lubrication,
             driven_inertia=driven_inertia,
             load_ramp=load_ramp,
             impact_speed=impact_speed,
@@ -242,6 +271,7 @@ def drive(
             settle=settle,
             link_damping=link_damping,
             elongation=elongation,
+            cushion=cushion,
             **with_shoes,
         )
     given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
@@ -262,6 +292,7 @@ def drive(
     z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
     for k, z in enumerate((z1, z2)):
         checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
+    rings = as_cushions(cushion, 2)
     load, load_torque = as_load("load_torque", load_torque, speed_rpm * math.pi / 30 * z1 / z2)
     check_load_ramp((load,), load_ramp)
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
@@ -317,6 +348,7 @@ def drive(
         rollers_on_bush=rollers_on_bush,
         damping_ratio=link_damping,
         joint_friction=joint_friction,
+        lubrication=lubrication,
         link_load=pretension + load_torque / float(profiles[1].pitch_radius),
     )
     if driven_inertia is None:
@@ -356,6 +388,7 @@ def drive(
         tensile_strength=chain.tensile_strength,
         gravity=gravity,
     )
+    scene = CushionContacts.attach(scene, rings, chain)
     return equilibrate(scene, take_up=2 * pretension) if settle else scene
 
 

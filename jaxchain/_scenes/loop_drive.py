@@ -11,7 +11,9 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.base import AbstractContactLaw
+from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction_base import AbstractFrictionLaw
+from .._elements.cushion import CushionContacts, as_cushions
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
@@ -140,6 +142,7 @@ def loop_drive(
     restitution: float,
     friction: AbstractFrictionLaw | None,
     joint_friction: AbstractFrictionLaw | str | None,
+    lubrication: AbstractFilmLaw | None = None,
     driven_inertia,
     load_ramp: float | None,
     impact_speed: float,
@@ -152,6 +155,7 @@ def loop_drive(
     gravity=None,
     shoe_contact: AbstractContactLaw | None = None,
     elongation: float = 0.0,
+    cushion=None,
 ) -> Scene:
     """The drive over N sprockets (see :func:`~jaxchain.scenes.drive`)."""
     if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
@@ -161,6 +165,7 @@ def loop_drive(
         raise ValueError(f"teeth must hold at least 2 tooth counts (driver first), got {n}")
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
     centres = as_centres(centres, n)
+    rings = as_cushions(cushion, n)
     speeds = [speed_rpm * math.pi / 30 * teeth[0] / z for z in teeth[1:]]
     driven_loads, held = as_loads("load_torque", load_torque, speeds)
     check_load_ramp(driven_loads, load_ramp)
@@ -227,6 +232,7 @@ def loop_drive(
         rollers_on_bush=rollers_on_bush,
         damping_ratio=link_damping,
         joint_friction=joint_friction,
+        lubrication=lubrication,
         link_load=float(tension.max()),
     )
     if load_ramp is None:  # a settled start carries the full load already
@@ -272,6 +278,7 @@ def loop_drive(
         tensioners=arms,
         shoes=shoes,
     )
+    scene = CushionContacts.attach(scene, rings, chain)
     if not settle:
         return scene
     return equilibrate(scene, take_up=0.0 if tensioner is not None else 2 * pretension)

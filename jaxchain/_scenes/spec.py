@@ -16,8 +16,10 @@ import numpy as np
 
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
+from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.base import AbstractElement
+from .._elements.cushion import CushionRing, as_cushions
 from .._loads import AbstractLoad
 from .._profiles.base import AbstractProfile
 from .._profiles.iso import ToothProfile
@@ -45,6 +47,8 @@ class SprocketSpec:
         inertia: a driven sprocket's moment of inertia [kg·m²]; None: a steel disc of its
             pitch diameter.
         outside: the chain wraps it from outside the loop (an idler on the chain's back).
+        cushion: a :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>` beside
+            its teeth, or None (none).
     """
 
     teeth: int
@@ -53,6 +57,14 @@ class SprocketSpec:
     load: float | AbstractLoad | None = 0.0
     inertia: float | None = None
     outside: bool = False
+    cushion: CushionRing | None = None
+
+    def __post_init__(self):
+        if self.cushion is not None and not isinstance(self.cushion, CushionRing):
+            raise TypeError(
+                "SprocketSpec.cushion must be a jc.elements.CushionRing or None, got "
+                f"{type(self.cushion).__name__} {self.cushion!r}"
+            )
 
     def replace(self, **changes) -> SprocketSpec:
         """A copy with ``changes`` (field=value)."""
@@ -72,8 +84,9 @@ class _ChainModel:
     restitution: float = 0.7
     friction: AbstractFrictionLaw | None = None
     joint_friction: AbstractFrictionLaw | str | None = "default"
+    lubrication: AbstractFilmLaw | None = None
     impact_speed: float = 1.0
-    rollers_on_bush: Literal["joint", "lumped"] = "joint"
+    rollers_on_bush: Literal["joint", "lumped"] | None = None
     roller_contact: AbstractContactLaw | None = None
     link_damping: float = 0.05
     gravity: float | tuple[float, float] | None = None
@@ -189,6 +202,8 @@ class DriveSpec(_ChainModel):
         elif any(s.outside for s in sp) or self.take_up_sprocket is not None:
             args["outside"] = tuple(k for k, s in enumerate(sp) if s.outside)
             args["take_up_sprocket"] = self.take_up_sprocket  # refused there: needs centres
+        if any(s.cushion is not None for s in sp):
+            args["cushion"] = tuple(s.cushion for s in sp)
         if any(s.profile is not None for s in sp):
             chain = as_chain(self.chain)
             args["profiles"] = tuple(
@@ -227,11 +242,13 @@ class DriveSpec(_ChainModel):
         load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
         profiles: Sequence[AbstractProfile] | None = None,
         driven_inertia: float | Sequence[float] | None = None,
+        cushion: Sequence[CushionRing | None] | None = None,
         **rest,
     ) -> DriveSpec:
         """The spec of ``jc.scenes.drive(chain, teeth, ...)``: the same arguments, the
         per-sprocket ones (``teeth``, ``centres``, ``outside``, ``load_torque``,
-        ``profiles``, ``driven_inertia``) gathered into :class:`SprocketSpec` s."""
+        ``profiles``, ``driven_inertia``, ``cushion``) gathered into
+        :class:`SprocketSpec` s."""
         teeth = tuple(int(z) for z in np.atleast_1d(teeth))
         n = len(teeth)
 
@@ -249,6 +266,7 @@ class DriveSpec(_ChainModel):
         if len(axes) != n:
             raise ValueError(f"centres must hold {n} axes (one per sprocket), got {len(axes)}")
         out = set(int(k) for k in np.atleast_1d(outside)) if np.size(outside) else set()
+        rings = as_cushions(cushion, n)
         sprockets = tuple(
             SprocketSpec(
                 teeth=z,
@@ -257,9 +275,10 @@ class DriveSpec(_ChainModel):
                 load=w,
                 inertia=i,
                 outside=k in out,
+                cushion=r,
             )
-            for k, (z, c, p, w, i) in enumerate(
-                zip(teeth, axes, shapes, loads, inertias, strict=True)
+            for k, (z, c, p, w, i, r) in enumerate(
+                zip(teeth, axes, shapes, loads, inertias, rings, strict=True)
             )
         )
         if "elements" in rest:
@@ -285,11 +304,25 @@ class StrandSpec(_ChainModel):
     n_entry: int = 8
     n_exit: int = 4
     span_stiffness: float | None = None
+    #: a cushion ring on the sprocket (the same as ``sprocket.cushion``: give it in one of
+    #: the two places), or None
+    cushion: CushionRing | None = None
 
     def __post_init__(self):
         if not isinstance(self.sprocket, SprocketSpec):
             raise ValueError(
                 f"StrandSpec.sprocket must be a jc.scenes.SprocketSpec, got {self.sprocket!r}"
+            )
+        if self.cushion is not None and not isinstance(self.cushion, CushionRing):
+            raise TypeError(
+                "StrandSpec.cushion must be a jc.elements.CushionRing or None, got "
+                f"{type(self.cushion).__name__} {self.cushion!r}"
+            )
+        ring = self.sprocket.cushion
+        if self.cushion is not None and ring is not None and ring is not self.cushion:
+            raise ValueError(
+                "StrandSpec: two cushion rings for its one sprocket (StrandSpec.cushion and "
+                "StrandSpec.sprocket.cushion); give the ring in one of the two places"
             )
         object.__setattr__(self, "elements", tuple(self.elements))
 
@@ -306,6 +339,7 @@ class StrandSpec(_ChainModel):
             n_entry=self.n_entry,
             n_exit=self.n_exit,
             span_stiffness=self.span_stiffness,
+            cushion=self.cushion if self.cushion is not None else self.sprocket.cushion,
         )
         return args
 

@@ -354,7 +354,12 @@ _finish_jitted = eqx.filter_jit(_finish)
 
 
 def _at_rest(scene: Scene) -> Scene:
-    if scene.anchors is None:  # at rest: guides still (no damper force from their speed)
+    """The scene as its statics see it: guides still (no damper force from their speed),
+    and the joints' oil films left out (a film carries no load at rest, and its squeeze
+    damping would only slow the relaxation down)."""
+    if any(g.lubricated for g in scene.pairs):
+        scene = eqx.tree_at(lambda sc: sc.pairs, scene, tuple(g.dry() for g in scene.pairs))
+    if scene.anchors is None:
         return scene
     return eqx.tree_at(lambda sc: sc.anchors.speed, scene, jnp.zeros_like(scene.anchors.speed))
 
