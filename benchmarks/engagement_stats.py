@@ -127,6 +127,6 @@ def boxes(ax, runs: list[dict], title: str) -> None:
                 data.append(pk[pop == k])
                 labels.append(f"{r['label']}\n{short} roller")
     ax.boxplot(data, whis=(5, 95), showmeans=True)
-    ax.set_xticks(range(1, len(labels) + 1), labels, fontsize=6)
+    ax.set_xticks(range(1, len(labels) + 1), labels, fontsize=6, rotation=30, ha="right")
     ax.set_ylabel("per-engagement peak roller/tooth force [N]")
     ax.set_title(f"{title} (whiskers 5–95 %, ▲ mean)", fontsize=9)

@@ -150,6 +150,7 @@ def law_force(law, e, e_rate, spin, geometry):
     return np.asarray(law.force(jnp.asarray(e), jnp.asarray(e_rate), spin, c, r, length))
 
 
+@pytest.mark.slow  # the reference solver checking itself: 2 grids of every case
 def test_reference_converges():
     """The 2D reference changes by < 0.5 % when its grid is doubled both ways (second
     order: the default grid is then within ~0.2 % of converged), at ε = 0.9, the
