@@ -16,7 +16,8 @@ job's worst, 1500 rpm with the chain worn 2 %) on the engagement strand from a s
 start, the first two tooth periods discarded, with every meshing event's peak
 (:class:`jc.observers.EngagementPeaks`):
 
-* clearance-joint chain, default (Dahl) joint friction: ``--engagements`` events (30);
+* clearance-joint chain, default (Dahl) joint friction, dry or (``--viscosity``) with an
+  oil film in its joints: ``--engagements`` events (30);
 * lumped chain, default joint friction: 8 events (it scatters by a few per cent).
 
 Reported per design: both chains' mean per-engagement peak with its 95 % interval, and
@@ -195,6 +196,12 @@ def main(argv=None) -> dict:
     ap.add_argument("--rpm", type=float, default=1500.0, help="driver speed [rpm]")
     ap.add_argument("--wear", type=float, default=0.02, help="chain elongation (0.02 = 2 %%)")
     ap.add_argument(
+        "--viscosity",
+        type=float,
+        default=None,
+        help="oil in the clearance chain's joints (jc.contact.OilFilm, Pa·s); default dry",
+    )
+    ap.add_argument(
         "--replot",
         action="store_true",
         help="recompute the statistics and the chart from --out's clearance_design.json",
@@ -222,6 +229,7 @@ def main(argv=None) -> dict:
         tension_N=TENSION,
         rpm=args.rpm,
         wear=args.wear,
+        viscosity=args.viscosity,
         engagements=engagements,
         lumped_engagements=LUMPED_ENGAGEMENTS if not args.quick else 3,
         discarded_periods=DISCARD,
@@ -241,6 +249,7 @@ def main(argv=None) -> dict:
             wear=args.wear,
             engagements=n,
             fidelity=fidelity,
+            lubrication=None if args.viscosity is None else jc.contact.OilFilm(args.viscosity),
         )
         print(
             f"  {name:22s} {fidelity:9s}: {row['steps']} steps, {row['wall_s']:.0f} s, "

@@ -34,11 +34,13 @@ def measure(
     wear: float,
     engagements: int,
     fidelity: str = "clearance",
+    lubrication=None,
 ) -> dict:
     """Per-engagement peaks [N] of ``profile`` on the engagement strand (the builder's
     default joint friction of ``fidelity``; ``engagements`` rollers mesh after the
     discarded start, one more closes the last window), with the solve's outcome (Tsit5 at
-    ``simulate``'s default tolerances)."""
+    ``simulate``'s default tolerances); ``lubrication``: an oil film in the clearance
+    chain's joints (None: dry)."""
     n_entry = engagements + DISCARD + 1
     scene = jc.scenes.engagement(
         chain,
@@ -49,6 +51,7 @@ def measure(
         profile=profile,
         n_entry=n_entry,
         elongation=wear,
+        lubrication=lubrication if fidelity == "clearance" else None,
     )
     period = 60.0 / (rpm * teeth)
     t1 = n_entry * period

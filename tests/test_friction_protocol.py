@@ -83,7 +83,9 @@ def _sliding(scene, seed=0):
     return y._replace(bristle=4e-6 * jax.random.uniform(key2, (nb,), minval=-1.0, maxval=1.0))
 
 
-@pytest.mark.parametrize("fidelity", ["lumped", "clearance"])
+@pytest.mark.parametrize(
+    "fidelity", ["lumped", pytest.param("clearance", marks=pytest.mark.slow)]
+)  # the clearance joints' forces compile for ~14 s; their Dahl path: test_dahl_friction
 def test_users_law_equals_builtin(fidelity):
     """At a state with sliding joints and loaded states, the user's law gives the built-in
     law's forces and state rates (lumped chain: the joints' friction moments; clearance
