@@ -150,3 +150,26 @@ def file_header(data, *, format: str, version: int, what: str, writer: str) -> N
             f"written in {what} format version {found}, newer than this jaxchain reads (up "
             f"to {version}); update jaxchain to load it"
         )
+
+
+def read_json_file(path, what: str, parse):
+    """``parse`` of the JSON in the file at ``path``, a jaxchain ``what`` file: a missing
+    path or a folder raises the OS error naming it; not JSON, or what ``parse`` refuses
+    (``TypeError``/``ValueError``), a ``ValueError`` that names the file."""
+    import errno
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        if path.is_dir():
+            raise IsADirectoryError(errno.EISDIR, f"a jaxchain {what} is a file", str(path))
+        raise FileNotFoundError(errno.ENOENT, f"no jaxchain {what} file", str(path))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"{path} is not a jaxchain {what}: not JSON ({e})") from None
+    try:
+        return parse(data)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{path}: {e}") from None

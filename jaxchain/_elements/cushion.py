@@ -28,7 +28,6 @@ the sprocket's axis; it passes through the axis, so it puts no torque on the spr
 
 from __future__ import annotations
 
-import errno
 import json
 import math
 import os
@@ -42,7 +41,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._chain import as_chain
-from .._checks import fields, file_header
+from .._checks import fields, file_header, read_json_file
 from .._kinematics import perp, points, rot, scatter
 from .._numerics import is_concrete, safe_norm, safe_normalize, safe_pow, smooth_ramp
 from .base import AbstractElement, Effect
@@ -222,21 +221,7 @@ class CushionRing(eqx.Module):
             ValueError: not JSON, not a jaxchain cushion ring, a newer format version, or
                 parameters that do not make a valid ring (the message names the file).
         """
-        path = Path(path)
-        if not path.is_file():
-            if path.is_dir():
-                raise IsADirectoryError(
-                    errno.EISDIR, "a jaxchain cushion ring is a file", str(path)
-                )
-            raise FileNotFoundError(errno.ENOENT, "no jaxchain cushion ring file", str(path))
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise ValueError(f"{path} is not a jaxchain cushion ring: not JSON ({e})") from None
-        try:
-            return _from_dict(data)
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"{path}: {e}") from None
+        return read_json_file(path, "cushion ring", _from_dict)
 
 
 def _from_dict(data) -> CushionRing:

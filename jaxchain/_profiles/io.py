@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import errno
-import json
 from pathlib import Path
 
 import equinox as eqx
@@ -36,19 +34,7 @@ def load_profile(path: str | Path) -> ToothProfile | FreeformProfile:
             newer format version than this jaxchain reads, or its fields do not make a
             valid profile (the message names the file and what is wrong).
     """
-    path = Path(path)
-    if not path.is_file():
-        if path.is_dir():
-            raise IsADirectoryError(errno.EISDIR, "a jaxchain profile is a file", str(path))
-        raise FileNotFoundError(errno.ENOENT, "no jaxchain profile file", str(path))
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ValueError(f"{path} is not a jaxchain profile: not JSON ({e})") from None
-    try:
-        return profile_from_dict(data)
-    except ValueError as e:
-        raise ValueError(f"{path}: {e}") from None
+    return checks.read_json_file(path, "profile", profile_from_dict)
 
 
 def profile_from_dict(data: dict) -> ToothProfile | FreeformProfile:
