@@ -5,7 +5,6 @@ comparison of two variants."""
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -30,20 +29,6 @@ def strand(rpm: float, n_entry: int, **model):
     return jc.scenes.engagement(
         CHAIN, TEETH, speed_rpm=rpm, tension=TENSION, n_entry=n_entry, **model
     )
-
-
-def populations(ev: jc.Engagements) -> np.ndarray:
-    """1 for the first roller of its roller link to mesh, 2 for the second (0: its partner
-    never meshed in the run, so which it is cannot be told)."""
-    first_onset = {}
-    for r, t in zip(ev.roller, ev.onset, strict=True):
-        first_onset[int(r)] = min(first_onset.get(int(r), math.inf), float(t))
-    out = np.zeros(len(ev), int)
-    for i, r in enumerate(ev.roller):
-        partner = int(r) ^ 1  # rollers 2k and 2k + 1 sit on roller link k
-        if partner in first_onset:
-            out[i] = 1 if first_onset[int(r)] < first_onset[partner] else 2
-    return out
 
 
 def stats(peaks) -> dict:
@@ -71,7 +56,7 @@ def measure(rpm: float, n_entry: int, label: str, **model) -> dict:
     sol = jc.simulate(scene, t1, n_save=2, max_steps=MAX_STEPS, observers=(obs,))
     wall = time.perf_counter() - t0
     ev = jc.engagement_peaks(sol, t_start=DISCARD * period(rpm)).select(sprocket=0)
-    pop = populations(ev)
+    pop = ev.populations()
     out = {
         "label": label,
         "rpm": rpm,

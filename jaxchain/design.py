@@ -3,6 +3,9 @@
 space = jc.design.DesignSpace.iso606(chain, 18)        # ISO 606 limits, u ∈ ℝ⁴
 space = jc.design.DesignSpace.select(profile, {"seating_radius": (lo, hi), ...})  # any leaves
 profile = space.profile(u)                              # always inside the box
+design = jc.design.SprocketDesign(profile, jc.elements.CushionRing(radius=30.3e-3))
+space = jc.design.DesignSpace.select(design, {"profile.seating_radius": (lo, hi),
+                                              "cushion.radius": (r_lo, r_hi)})  # tooth + ring
 peak = jc.design.soft_peak_force(scene, t1, temperature=50.0, dt=2e-6)
 noise = jc.design.observe(scene, t1, jc.observers.BandLevel.mesh_band(18, 0.2, 2.2))
 objective = jc.design.ProfileObjective(space, build, t1=..., dt=...)      # soft peak force
@@ -20,3 +23,4 @@ from ._design.objective import (
     window_weight as window_weight,
 )
 from ._design.space import PARAMETERS as PARAMETERS, DesignSpace as DesignSpace
+from ._design.sprocket import SprocketDesign as SprocketDesign, profile_of as profile_of

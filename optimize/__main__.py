@@ -105,12 +105,16 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     )
     ap.add_argument(
         "--problem",
-        choices=(*PROBLEMS, "timing"),
+        choices=(*PROBLEMS, "timing", "quiet"),
         default=d.problem,
         help="gentle: free-form asymmetric tooth, worst peak over speeds and wear "
         "(default); iso: the four ISO 606 parameters inside the standard's box; timing: a "
         "timing drive's non-circular crank sprocket and tensioner against the camshafts' "
         "torque over 1000-6000 rpm (optimize/timing.py; --iterations, --out, --resume, "
+        "--fast apply); quiet: the tooth alone and the tooth with a cushion ring "
+        "(problem ring: the ring's radius, stiffness and damping beside the tooth), "
+        "re-measured in the clearance-joint chain dry and in oil (optimize/quiet.py; "
+        "--speeds, --clearance-engagements, --viscosity, --iterations, --out, --resume, "
         "--fast apply)",
     )
     ap.add_argument(
@@ -232,6 +236,18 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         help="where to re-measure in the clearance chain: the baseline's worst operating "
         "point in the lumped chain (default; about a minute) or all of them",
     )
+    ap.add_argument(
+        "--speeds",
+        type=_floats,
+        default=None,
+        help="quiet: speed factors (of 1000 rpm) of the clearance-chain measurement (default 1)",
+    )
+    ap.add_argument(
+        "--viscosity",
+        type=float,
+        default=None,
+        help="quiet: the lubricated measurement's oil viscosity [Pa·s] (default 0.01)",
+    )
     ap.add_argument("--out", type=Path, default=Path("results/optimize"), help="output folder")
     ap.add_argument("--resume", action="store_true", help="continue from --out's checkpoint")
     ap.add_argument(
@@ -299,6 +315,14 @@ def main(argv=None) -> dict:
     settings, args = parse(argv)
     if settings.problem == "timing":
         return _timing(args)
+    if settings.problem == "quiet":
+        return _quiet(args)
+    for name in ("speeds", "viscosity"):
+        if getattr(args, name) is not None:
+            raise SystemExit(
+                f"python -m optimize: error: --{name} is an option of --problem quiet; "
+                f"--problem {settings.problem} does not use it"
+            )
     # several processes (python -m jaxchain.launch -n N -m optimize, or srun): the operating
     # points are shared among them; process 0 reports and writes, all read a checkpoint
     jc.distributed.initialize()
@@ -320,6 +344,66 @@ def main(argv=None) -> dict:
         raise SystemExit(f"python -m optimize: error: {e}{hint}") from None
     except (jc.SolveError, RunFailed) as e:  # a simulation failed: its message says why
         raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
+
+
+# the options --problem quiet reads (and those every problem has)
+QUIET_OPTIONS = {
+    "problem", "speeds", "viscosity", "clearance_engagements", "iterations", "out",
+    "resume", "fast", "quiet", "given",
+}  # fmt: skip
+
+
+def _quiet(args) -> dict:
+    """``--problem quiet`` (:mod:`optimize.quiet`)."""
+    from . import quiet
+
+    defaults = vars(parse([])[1])
+    unused = sorted(
+        k for k, v in vars(args).items()
+        if k not in QUIET_OPTIONS and k not in FAST and v != defaults.get(k)
+    )  # fmt: skip
+    unused += sorted(k for k in FAST if k in args.given and k not in QUIET_OPTIONS)
+    if unused:
+        raise SystemExit(
+            "python -m optimize: error: --problem quiet designs the main job's default "
+            "problems and does not use "
+            + ", ".join("--" + k.replace("_", "-") for k in unused)
+            + " (it reads --speeds, --clearance-engagements, --viscosity, --iterations, "
+            "--out, --resume, --fast)"
+        )
+    q = quiet.QuietSettings()
+    if args.speeds is not None:
+        q.speeds = tuple(args.speeds)
+    if args.viscosity is not None:
+        q.viscosity = args.viscosity
+    if "clearance_engagements" in args.given:
+        q.engagements = args.clearance_engagements
+    if "iterations" in args.given:
+        q.iterations = args.iterations
+    fast = args.fast or os.environ.get("JAXCHAIN_FAST") == "1"
+    if fast:
+        q.fast = True
+        if "clearance_engagements" not in args.given:
+            q.engagements = 4
+    out = args.out if args.out != Path("results/optimize") else Path("results/optimize_quiet")
+    try:
+        q.validate()
+        _writable(out)
+        return quiet.run(q, out, resume=args.resume, quiet=args.quiet)
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except ValueError as e:
+        raise SystemExit(f"python -m optimize: error: {e}") from None
+    except jc_errors() as e:
+        raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
+
+
+def jc_errors() -> tuple:
+    import jaxchain as jc
+
+    from .run import RunFailed
+
+    return (jc.SolveError, RunFailed)
 
 
 def _timing(args) -> dict:

@@ -25,7 +25,7 @@ POINTS = ("worst", "all")
 
 
 def measure(
-    profile,
+    design,
     *,
     chain,
     teeth: int,
@@ -36,12 +36,16 @@ def measure(
     fidelity: str = "clearance",
     lubrication=None,
 ) -> dict:
-    """Per-engagement peaks [N] of ``profile`` on the engagement strand (the builder's
-    default joint friction of ``fidelity``; ``engagements`` rollers mesh after the
-    discarded start, one more closes the last window), with the solve's outcome (Tsit5 at
-    ``simulate``'s default tolerances); ``lubrication``: an oil film in the clearance
-    chain's joints (None: dry)."""
+    """Per-engagement peaks [N] of ``design`` (a tooth profile, or a
+    :class:`~jaxchain.design.SprocketDesign`: its tooth and cushion ring) on the
+    engagement strand (the builder's default joint friction of ``fidelity``;
+    ``engagements`` rollers mesh after the discarded start, one more closes the last
+    window), which of its link's rollers each is (``populations``: 1 first, 2 second,
+    :meth:`jc.Engagements.populations <jaxchain.Engagements.populations>`), with the
+    solve's outcome (Tsit5 at ``simulate``'s default tolerances); ``lubrication``: an oil
+    film in the clearance chain's joints (None: dry)."""
     n_entry = engagements + DISCARD + 1
+    profile = jc.design.profile_of(design)
     scene = jc.scenes.engagement(
         chain,
         teeth,
@@ -52,6 +56,7 @@ def measure(
         n_entry=n_entry,
         elongation=wear,
         lubrication=lubrication if fidelity == "clearance" else None,
+        cushion=getattr(design, "cushion", None),
     )
     period = 60.0 / (rpm * teeth)
     t1 = n_entry * period
@@ -65,9 +70,10 @@ def measure(
         max_steps=STEPS_PER_PERIOD * n_entry,
         throw=False,
     )
-    peaks = jc.engagement_peaks(sol, t_start=DISCARD * period).peak if sol.ok else np.array([])
+    ev = jc.engagement_peaks(sol, t_start=DISCARD * period) if sol.ok else None
     return {
-        "peaks_N": np.asarray(peaks).tolist(),
+        "peaks_N": [] if ev is None else ev.peak.tolist(),
+        "populations": [] if ev is None else ev.populations().tolist(),
         "ok": bool(sol.ok),
         "message": sol.message,
         "steps": int(sol.stats["num_accepted_steps"]),

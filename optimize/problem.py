@@ -1,11 +1,13 @@
 """The design problems of the main job: scene, design space, objective, re-measurement.
 
-Two problems (``--problem``), both robust over a band of speeds and chain wear:
+Three problems (``--problem``), all robust over a band of speeds and chain wear:
 
 * ``gentle`` (the default): a free-form asymmetric tooth (each side of the gap its own
   seat angle and a flank of two arcs, plus the seating radius; 7 coordinates) against
   the worst peak roller/tooth force of the engagement;
-* ``iso``: the four ISO 606 tooth-gap parameters inside the standard's box.
+* ``iso``: the four ISO 606 tooth-gap parameters inside the standard's box;
+* ``ring``: the free-form tooth and a cushion ring beside it (its radius, stiffness and
+  damping; 10 coordinates), against the same worst peak: :func:`ring_space`.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import jaxchain as jc
-from jaxchain.design import DesignSpace, ProfileObjective
+from jaxchain.design import DesignSpace, ProfileObjective, SprocketDesign
 
 
 def _is_optimizer(name: str) -> bool:
@@ -39,7 +41,8 @@ def _is_optimizer(name: str) -> bool:
     return callable(getattr(opt, "init", None)) and callable(getattr(opt, "update", None))
 
 
-PROBLEMS = ("gentle", "iso")
+PROBLEMS = ("gentle", "iso", "ring")
+MAX_COMBINED = ("gentle", "ring")  # problems whose members combine by a soft maximum
 HORIZONS = ("slowest", "own")
 
 
@@ -47,7 +50,7 @@ HORIZONS = ("slowest", "own")
 class Settings:
     """Everything that defines a run (saved with its results; a resume must match)."""
 
-    problem: str = "gentle"  # "gentle" (free-form asymmetric tooth) or "iso" (ISO 606 box)
+    problem: str = "gentle"  # "gentle" (free-form tooth), "iso" (ISO 606 box), "ring" (+ ring)
     scene: str = "engagement"  # "engagement" (one driver meshing a strand) or "drive"
     chain: str = "08B"
     teeth: int = 18  # the designed sprocket (the driver)
@@ -178,13 +181,17 @@ class Problem:
 
     def build(
         self,
-        profile,
+        design,
         speed_factor: float = 1.0,
         roller_contact=None,
         joint_friction=jc.scenes.JOINT_FRICTION,
         wear: float = 0.0,
     ):
+        """The settled scene of ``design`` (a tooth profile, or a
+        :class:`~jaxchain.design.SprocketDesign`: its tooth and its cushion ring) at one
+        operating point."""
         s = self.settings
+        profile, cushion = _parts(design)
         rpm = s.speed_rpm * speed_factor
         if s.scene == "engagement":
             # the window is set by the slowest member; a faster one meshes more rollers
@@ -200,6 +207,7 @@ class Problem:
                 roller_contact=roller_contact,
                 joint_friction=joint_friction,
                 elongation=wear,
+                cushion=cushion,
             )
         driven = jc.ToothProfile.iso606(self.chain, s.driven_teeth, "mid")
         return jc.scenes.drive(
@@ -212,6 +220,7 @@ class Problem:
             profiles=(profile, driven),
             roller_contact=roller_contact,
             joint_friction=joint_friction,
+            cushion=(cushion, None),
         )
 
     @property
@@ -276,7 +285,7 @@ class Problem:
                 samples=s.samples,
                 dt=s.dt,
                 take_up=self.take_up,
-                combine="max" if s.problem == "gentle" else "mean",
+                combine="max" if s.problem in MAX_COMBINED else "mean",
                 throw=False,  # a failed member is reported by the run (NaN value, its message)
                 sharding="auto" if self.shared else None,
             )
@@ -289,7 +298,7 @@ class Problem:
             scale = min(s.ensemble) / f  # this speed's tooth period over the slowest's
             points = [(f, e) for e in s.wear]
             groups.append(objective(points, self.t1 * scale, self.t_start * scale))
-        tau = s.temperature * reference if s.problem == "gentle" else None  # None: mean
+        tau = s.temperature * reference if s.problem in MAX_COMBINED else None  # None: mean
         self.objective = SpeedGroups(groups, tau)
         return self.objective
 
@@ -346,21 +355,67 @@ def gentle_space(chain: jc.ChainSpec, teeth: int) -> tuple[DesignSpace, jc.Freef
     side's seat angle (clockwise side 62–78°, counter-clockwise 57–68°; ISO: 57.5–67.5°
     at z = 18) and its two arcs' curvatures (clockwise 8–50 1/m, counter-clockwise
     20–50 1/m; ISO: 29–49 1/m). Every corner of the box is a valid tooth."""
+    start, bounds = _gentle(chain, teeth)
+    return DesignSpace.select(start, bounds), start
+
+
+def _gentle(chain: jc.ChainSpec, teeth: int) -> tuple[jc.FreeformProfile, dict]:
+    """:func:`gentle_space`'s start and bounds."""
     lim = jc.iso606_limits(chain, teeth)
     iso = jc.ToothProfile.iso606(chain, teeth, "min")
     start = jc.FreeformProfile.from_iso(iso, 2, tip_diameter=lim["tip_diameter"][0])
     deg = math.radians
-    space = DesignSpace.select(
-        start,
-        {
-            "seating_radius": lim["seating_radius"],
-            "cw.seat_angle": (deg(62.0), deg(78.0)),
-            "ccw.seat_angle": (deg(57.0), deg(68.0)),
-            "cw.curvature": (8.0, 50.0),
-            "ccw.curvature": (20.0, 50.0),
-        },
+    return start, {
+        "seating_radius": lim["seating_radius"],
+        "cw.seat_angle": (deg(62.0), deg(78.0)),
+        "ccw.seat_angle": (deg(57.0), deg(68.0)),
+        "cw.curvature": (8.0, 50.0),
+        "ccw.curvature": (20.0, 50.0),
+    }
+
+
+def _parts(design):
+    """(tooth profile, cushion ring or None) of a design."""
+    if isinstance(design, SprocketDesign):
+        return design.profile, design.cushion
+    return design, None
+
+
+def seated_plate_edge(chain: jc.ChainSpec, teeth: int) -> float:
+    """How far from the axis the seated links' plate edges sit [m]: r_p·cos(π/z) − h/2
+    (08B on 18 teeth: 30.108 mm)."""
+    rp = float(chain.pitch) / (2 * math.sin(math.pi / teeth))
+    return rp * math.cos(math.pi / teeth) - float(chain.plate_height) / 2
+
+
+# the ring's box (ring_space): its reach into the seated plates, its stiffness, damping
+RING_REACH = (-0.05e-3, 0.2e-3)  # [m] about the seated plate edges
+RING_STIFFNESS = (2e7, 5e7)  # [N/m^1.5] per plate edge and face
+RING_DAMPING = (0.1, 1.0)  # [s/m] Hunt–Crossley α: restitution 0.93–0.47 at 1 m/s
+
+
+def ring_space(chain: jc.ChainSpec, teeth: int) -> tuple[DesignSpace, SprocketDesign]:
+    """The free-form tooth of :func:`gentle_space` with a cushion ring on both faces
+    (:class:`jc.elements.CushionRing`): its radius from 0.05 mm short of the seated
+    plate edges to 0.2 mm into them (:data:`RING_REACH`; 0.2 mm is 20 % of the default
+    ring's 1 mm elastomer layer, the usual limit of an elastomer's static compression),
+    its stiffness from 2·10⁷ to the default HNBR ring's 5·10⁷ N/m^1.5 (softer
+    elastomers) and its damping 0.1–1 s/m. The box bounds the ring's load on the seated
+    links at rest: at most the default ring's 0.2 mm into them. Starts from the gentle
+    start's tooth and the box's middle ring."""
+    tooth, tooth_bounds = _gentle(chain, teeth)
+    reach = [seated_plate_edge(chain, teeth) + r for r in RING_REACH]
+    mid = lambda lo_hi: 0.5 * (lo_hi[0] + lo_hi[1])  # noqa: E731
+    ring = jc.elements.CushionRing(
+        mid(reach), stiffness=mid(RING_STIFFNESS), damping=mid(RING_DAMPING)
     )
-    return space, start
+    bounds = {f"profile.{name}": pair for name, pair in tooth_bounds.items()} | {
+        "cushion.radius": tuple(reach),
+        "cushion.stiffness": RING_STIFFNESS,
+        "cushion.damping": RING_DAMPING,
+    }
+    start = SprocketDesign(tooth, ring)
+    return DesignSpace.select(start, bounds), start
 
 
 def make_problem(settings: Settings) -> Problem:
@@ -369,6 +424,8 @@ def make_problem(settings: Settings) -> Problem:
     if settings.problem == "iso":
         space = DesignSpace.iso606(chain, settings.teeth)
         start = space.template  # the mid form, u = 0
+    elif settings.problem == "ring":
+        space, start = ring_space(chain, settings.teeth)
     else:
         space, start = gentle_space(chain, settings.teeth)
     period = 60.0 / (settings.teeth * settings.speed_rpm)

@@ -31,6 +31,7 @@ CHECKPOINT = "checkpoint.json"
 FORMS = ("min", "max", "mid")  # the ISO 606 tooth-gap forms every run is compared with
 RESULTS = "results.json"
 PROFILE = "profile.json"  # the delivered design, read back by jc.load_profile
+CUSHION = "cushion.json"  # its cushion ring (problem "ring"), jc.elements.CushionRing.load
 
 
 # ---------------------------------------------------------------------- files
@@ -71,29 +72,45 @@ def jsonable(x):
     return x
 
 
-def write_design(out: Path, profile) -> None:
-    """The delivered design's files in ``out``: ``profile.json`` (the profile itself, for
-    ``jc.load_profile``) and ``sprocket.dxf`` (its outline as DXF arcs in millimetres)."""
+def write_design(out: Path, design) -> dict:
+    """The delivered design's files in ``out``: ``profile.json`` (the tooth profile, for
+    ``jc.load_profile``), ``sprocket.dxf`` (its outline as DXF arcs in millimetres) and,
+    for a :class:`~jaxchain.design.SprocketDesign` with a ring, ``cushion.json``
+    (``jc.elements.CushionRing.load``). Returns the files' names by part."""
+    profile = jc.design.profile_of(design)
     profile.save(out / PROFILE)
     profile.to_dxf(out / "sprocket.dxf")
+    files = {"profile": PROFILE}
+    cushion = getattr(design, "cushion", None)
+    if cushion is not None:
+        cushion.save(out / CUSHION)
+        files["cushion"] = CUSHION
+    return files
 
 
 def delivered_profile(results: dict):
+    """The tooth profile delivered by a run, from its ``results.json`` (read as a dict):
+    :func:`delivered_design`'s tooth."""
+    return jc.design.profile_of(delivered_design(results))
+
+
+def delivered_design(results: dict):
     """The design delivered by a run, from its ``results.json`` (read as a dict): the
-    design space of its settings at its coordinates ``optimized.u``. Raises ``ValueError``
-    if that profile's parameters are not those the results record (the design space has
-    changed since the run)."""
+    design space of its settings at its coordinates ``optimized.u`` (a tooth profile, or
+    a :class:`~jaxchain.design.SprocketDesign` for the ``ring`` problem). Raises
+    ``ValueError`` if its parameters are not those the results record (the design space
+    has changed since the run)."""
     known = {f.name for f in dataclasses.fields(Settings)}
     given = {k: v for k, v in results["settings"].items() if k in known}
     given["ensemble"], given["wear"] = tuple(given["ensemble"]), tuple(given["wear"])
     problem = make_problem(Settings(**given))
-    profile = problem.space.profile(jnp.asarray(results["optimized"]["u"], dtype=float))
-    if profile_values(profile, problem.space) != results["optimized"]["params"]:
+    design = problem.space.design(jnp.asarray(results["optimized"]["u"], dtype=float))
+    if profile_values(design, problem.space) != results["optimized"]["params"]:
         raise ValueError(
             "the results' coordinates give other parameters in this version's design space "
             "than the run recorded; the design cannot be rebuilt from them"
         )
-    return profile
+    return design
 
 
 def write_profile_from_results(folder: str | Path) -> Path:
@@ -316,7 +333,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
                     "objective_N": float(value),
                     "grad_norm_N": gnorm,
                     "u": np.asarray(u).tolist(),
-                    "params": profile_values(problem.space.profile(u), problem.space),
+                    "params": profile_values(problem.space.design(u), problem.space),
                     "fraction": np.asarray(problem.space.fraction(u)).tolist(),
                     "seconds": dt,
                     "simulations": objective.evaluations,
@@ -355,7 +372,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         candidates["nelder_mead"] = (jnp.asarray(nm["best_u"]), nm["best_N"])
     checks = {}
     traces = {}
-    designs = [(name, problem.space.profile(u)) for name, (u, _) in candidates.items()]
+    designs = [(name, problem.space.design(u)) for name, (u, _) in candidates.items()]
     designs.append((f"iso_{better}", forms[better]))
     # every solve at once (independent: they share the cores), the better ISO form's
     # Johnson solves kept from step 1 where this run made them
@@ -387,7 +404,7 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
     # the delivered design: the optimizers' better one, as re-measured (nominal law)
     method = min(candidates, key=lambda c: checks[c]["johnson"]["peak_N"])
     u_opt, objective_value = candidates[method]
-    optimized = problem.space.profile(u_opt)
+    optimized = problem.space.design(u_opt)
     checks["optimized"] = checks[method]
     traces["optimized"] = traces[method]
     if not nm.get("skipped"):
@@ -468,8 +485,8 @@ def run(settings: Settings, out: Path, *, resume: bool = False, quiet: bool = Fa
         "timing": timing,
     }
     if lead:
+        results["files"] = write_design(out, optimized)
         write_atomic(out / RESULTS, json.dumps(jsonable(results), indent=1))
-        write_design(out, optimized)
         figures(problem, out, forms, optimized, better, history, nm, traces, spectra)
     log(summary(results), quiet)
     return results
@@ -718,7 +735,7 @@ def figures(problem, out, forms, optimized, better, history, nm, traces, spectra
         problem.chain,
         problem.settings.teeth,
         extra=({"ISO 606 mid form": forms["mid"]} if better == "mid" else {})
-        | {"optimized": optimized},
+        | {"optimized": jc.design.profile_of(optimized)},
         ax=ax,
     )
     ax.set_title("Tooth gap: optimized against the ISO 606 band")

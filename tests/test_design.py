@@ -442,3 +442,24 @@ def test_second_call_does_not_retrace(short_objective, monkeypatch):
     n = len(calls)
     short_objective.value_and_grad(jnp.array([0.4, -0.2, 0.1, 0.3]))  # new profile, new scenes
     assert len(calls) == n
+
+
+# ------------------------------------------------------------------ gradient blow-up
+def test_a_blown_up_gradient_is_a_failure_with_the_fix(short_objective):
+    """A gradient a million times the objective's size per unit of u, from a solve that
+    succeeded, is refused: raised with the fix (throw=True) or NaN (throw=False); a
+    gradient of the measured sizes passes."""
+    obj = short_objective
+    u = jnp.array([0.2, 0.5, -0.3, 0.1])  # (the gradient test's compiled program)
+    members = obj.value_and_grad_on(u, obj.scenes(u))[2]
+    value = jnp.asarray(1100.0)
+    assert obj._checked(value, jnp.array([5.0, -77.0, 0.4, 0.0]), members)[1] is not None
+    huge = jnp.array([2.9e35, -5.7e34, -2.1e32, 0.0])
+    with pytest.raises(jc.SolveError, match="gradient blew up.*slip_velocity=2e-2"):
+        obj._checked(value, huge, members)
+    obj.throw = False
+    try:
+        v, g = obj._checked(value, huge, members)
+        assert np.isnan(float(v)) and np.all(np.isnan(np.asarray(g)))
+    finally:
+        obj.throw = True

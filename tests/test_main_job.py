@@ -130,6 +130,45 @@ def test_clearance_remeasurement(tmp_path):
     assert "clearance" in (tmp_path / "results.json").read_text()
 
 
+@pytest.mark.slow
+def test_quiet_problem_delivers_both_designs_and_resumes(tmp_path):
+    """``--problem quiet`` in fast mode: the tooth and the tooth with its ring designed
+    (lumped chain), the best ISO form and both measured in the clearance-joint chain dry
+    and in oil (4 engagements), both roller populations told apart; the summary lists
+    each design's files (the ring's read back by CushionRing.load) and the goals; a
+    resume reads every finished solve back instead of solving it again."""
+    res = main(["--problem", "quiet", "--fast", "--quiet", "--out", str(tmp_path)])
+    designs = res["summary"]["designs"]
+    assert set(designs) == {"tooth", "tooth_ring"}
+    assert jc.load_profile(tmp_path / designs["tooth"]["profile"]).arcs == 2
+    ring = jc.elements.CushionRing.load(tmp_path / designs["tooth_ring"]["cushion"])
+    assert 0.0300 < float(ring.radius) < 0.0304
+    table = res["clearance"]["table"]
+    assert [(e["speed_factor"], e["lubrication"]) for e in table] == [(1.0, "dry"), (1.0, "oil")]
+    for e in table:
+        for name in ("tooth", "tooth_ring"):
+            assert e[name]["ok"] and e[name]["n"] >= 3, e[name]["message"]
+            d = e[name]["against_baseline"]
+            assert d["p95_ci95_N"][0] <= d["p95_ci95_N"][1]
+            assert {"first", "second"} <= set(e[name])
+    assert set(res["summary"]["goals"]) == {"tooth", "tooth_ring"}
+    assert (tmp_path / "peaks.png").stat().st_size > 10_000
+    again = main(["--problem", "quiet", "--fast", "--quiet", "--out", str(tmp_path), "--resume"])
+    assert again["clearance"]["table"] == table
+    assert again["wall_s"] < 0.25 * res["wall_s"]  # nothing solved again
+
+
+def test_quiet_refuses_options_it_does_not_use():
+    with pytest.raises(SystemExit, match="does not use --dt, --learning-rate.*reads --speeds"):
+        main(["--problem", "quiet", "--dt", "2e-6", "--learning-rate", "0.1", "--quiet"])
+    with pytest.raises(SystemExit, match="--speeds is an option of --problem quiet"):
+        main(["--speeds", "1,2", "--fast", "--quiet"])
+    with pytest.raises(SystemExit, match=r"speeds must be factors in \[0.2, 5\]"):
+        main(["--problem", "quiet", "--speeds", "9", "--quiet"])
+    with pytest.raises(SystemExit, match=r"engagements must be in \[2, 1000\]"):
+        main(["--problem", "quiet", "--clearance-engagements", "1", "--quiet"])
+
+
 def test_torque_spectrum_reads_amplitudes_and_band_rms():
     """The spectra the main job writes: a Hann-windowed sine reads its amplitude at its
     frequency, and each band's RMS is the RMS of the sine inside it (A/√2), zero elsewhere."""

@@ -31,10 +31,11 @@ from .._scene import Scene
 from .._scenes.statics import resettle_by_inverse, statics_jacobian
 from .._solve import distributed as dist
 from .._solve.options import SolveOptions, with_options
-from .._solve.result import Result, raise_if_failed
+from .._solve.result import Result, SolveError, raise_if_failed, result_names
 from .._solve.solve import check_horizon, solve, strong_scene
 from .._solve.stack import stack
 from .space import DesignSpace, coordinate
+from .sprocket import SprocketDesign, place
 
 __all__ = [
     "PeakForce",
@@ -227,8 +228,7 @@ class _Config(eqx.Module):
 
 
 def _member(u, space, scene, inverse, cfg):
-    k = cfg.sprocket
-    scene = eqx.tree_at(lambda s: s.sprockets[k].profile, scene, space.profile(u))
+    scene = place(scene, space.design(u), cfg.sprocket)
     scene = resettle_by_inverse(scene, cfg.take_up, inverse)
     return observe(scene, cfg.t1, cfg.objective, options=cfg.options)
 
@@ -331,6 +331,21 @@ _jacobians = stored("jaxchain.design.jacobians")(
 FORWARD_UP_TO = 4
 
 
+#: a gradient beyond this many times the objective's own size (per unit of the design
+#: coordinate u, which spans a box in a few units) is the trace of a fixed step that does
+#: not follow a fast mode of the model, not a sensitivity: the largest measured on a
+#: design objective is ~6e3 N per unit against a ~1e3 N value (the clearance-joint chain
+#: over one engagement), the blow-ups ~1e35 and beyond
+BLOWN_UP = 1e6
+
+
+def _blown_up(value, grad) -> bool:
+    g = np.asarray(grad)
+    return bool(np.all(np.isfinite(g))) and float(np.max(np.abs(g), initial=0.0)) > BLOWN_UP * max(
+        abs(float(value)), 1.0
+    )
+
+
 def _gradient_mode(gradient: str, space: DesignSpace, options: SolveOptions) -> str:
     """ "forward" or "reverse" for ``gradient`` ("auto", "forward", "reverse")."""
     checks.choice("gradient", gradient, ("auto", "forward", "reverse"))
@@ -395,7 +410,9 @@ class ProfileObjective:
 
     Args:
         space: the :class:`DesignSpace` (any number of coordinates).
-        build: profile -> settled scene(s) (concrete, outside the gradient).
+        build: profile -> settled scene(s) (concrete, outside the gradient); for a space
+            over a :class:`~jaxchain.design.SprocketDesign`, the design (its tooth and
+            its ring, which ``build`` puts on the designed sprocket) -> scene(s).
         t1: end of each solve [s].
         objective: the observer measured (default: the soft peak force below).
         t_start, temperature, reference: the default objective's, as in
@@ -420,7 +437,7 @@ class ProfileObjective:
     def __init__(
         self,
         space: DesignSpace,
-        build: Callable[[ToothProfile], Scene | Sequence[Scene]],
+        build: Callable[[ToothProfile | SprocketDesign], Scene | Sequence[Scene]],
         *,
         t1: float,
         objective: AbstractObserver | None = None,
@@ -498,7 +515,7 @@ class ProfileObjective:
     def scenes(self, u) -> Scene | dist.LocalMembers:
         """The settled scenes at ``u``, stacked along a leading ensemble axis (or this
         process's share, where ``build`` returns one)."""
-        built = self.build(self.space.profile(self._u(u)))
+        built = self.build(self.space.design(self._u(u)))
         if isinstance(built, dist.LocalMembers):
             return built
         return stack([built] if isinstance(built, Scene) else list(built))
@@ -554,15 +571,31 @@ class ProfileObjective:
                 f"ProfileObjective: sprocket={self.config.sprocket} but the scenes have "
                 f"{n_sprockets} sprocket(s); index the designed one in [0, {n_sprockets - 1}]"
             )
+        place(scenes, self.space.template, self.config.sprocket)  # the ring is there
         self.evaluations += n_members
 
     def _checked(self, value, grad, out: Observed):
-        """(value, grad) when every member succeeded; else raise or NaN them."""
+        """(value, grad) when every member succeeded and the gradient is one a solve
+        can have; else raise or NaN them."""
         if self.throw:
             raise_if_failed(out.result, None, "ProfileObjective")
         elif not bool(jnp.all(out.result == Result.successful)):
             value = jnp.full_like(value, jnp.nan)
             grad = None if grad is None else jnp.full_like(grad, jnp.nan)
+        if grad is not None and _blown_up(value, grad):
+            if self.throw:
+                raise SolveError(
+                    f"ProfileObjective: the gradient blew up (|grad| = "
+                    f"{float(jnp.max(jnp.abs(grad))):.3g} at value {float(value):.6g}) while "
+                    "the solve itself succeeded: a fixed step (dt) too long for a fast "
+                    "dissipative mode, most often the joint friction's creep band (the "
+                    "nominal 2 mm/s sticks within about a microsecond). Widen it for design "
+                    "solves, e.g. joint_friction=jc.contact.CoulombFriction(0.1, "
+                    "slip_velocity=2e-2), or shorten dt; re-measure the design with the "
+                    "nominal model",
+                    result_names(out.result),
+                )
+            value, grad = jnp.full_like(value, jnp.nan), jnp.full_like(grad, jnp.nan)
         return value, grad
 
     def value(self, u) -> tuple[Array, Observed]:

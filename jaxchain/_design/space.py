@@ -22,6 +22,7 @@ from .._observers.base import (
 from .._profiles.base import AbstractProfile
 from .._profiles.freeform import FreeformProfile
 from .._profiles.iso import ToothProfile, flank_meeting_diameter, iso606_limits
+from .sprocket import SprocketDesign, profile_of
 
 __all__ = ["PARAMETERS", "DesignSpace", "coordinate"]
 
@@ -41,16 +42,19 @@ class DesignSpace(eqx.Module):
     (``PARAMETERS``). :meth:`select` chooses any leaves of a tooth profile instead
     (``"seating_radius"``, ``"ccw.curvature"``, ``"cw.seat_angle"``, ``"phase"``, …), each
     a scalar, a (K,) flank leaf or one value per gap, with its own bounds: ``u`` is then
-    the concatenation of every chosen leaf's entries, in the order given.
+    the concatenation of every chosen leaf's entries, in the order given. With a
+    :class:`SprocketDesign` as the template the paths reach its tooth and its cushion
+    ring (``"profile.seating_radius"``, ``"cushion.radius"``): :meth:`design` gives the
+    whole design, :meth:`profile` its tooth.
 
     Attributes:
-        template: the profile whose other fields are kept.
+        template: the profile (or :class:`SprocketDesign`) whose other fields are kept.
         lower, upper: (n,) box of the chosen entries (SI units).
         names: the chosen leaves (dotted paths into the profile; static).
         shapes: their shapes (static).
     """
 
-    template: ToothProfile | FreeformProfile
+    template: ToothProfile | FreeformProfile | SprocketDesign
     lower: Float[Array, " n"]
     upper: Float[Array, " n"]
     names: tuple[str, ...] = eqx.field(static=True)
@@ -58,7 +62,7 @@ class DesignSpace(eqx.Module):
 
     def __init__(
         self,
-        template: ToothProfile | FreeformProfile,
+        template: ToothProfile | FreeformProfile | SprocketDesign,
         lower: ArrayLike,
         upper: ArrayLike,
         names: Sequence[str] = PARAMETERS,
@@ -66,8 +70,9 @@ class DesignSpace(eqx.Module):
     ):
         names = tuple(names)
         checks.instance(
-            "template", template, AbstractProfile,
-            "a jc.ToothProfile, jc.FreeformProfile or another jc.AbstractProfile",
+            "template", template, (AbstractProfile, SprocketDesign),
+            "a jc.ToothProfile, jc.FreeformProfile or another jc.AbstractProfile, or a "
+            "jc.design.SprocketDesign",
         )  # fmt: skip
         iso_box = names == PARAMETERS
         if iso_box:  # the ISO 606 four: leaves of the template's own
@@ -109,7 +114,7 @@ class DesignSpace(eqx.Module):
     @classmethod
     def select(
         cls,
-        template: ToothProfile | FreeformProfile,
+        template: ToothProfile | FreeformProfile | SprocketDesign,
         bounds: dict[str, tuple[ArrayLike, ArrayLike]],
     ) -> DesignSpace:
         """A box over the chosen leaves of ``template``: ``{path: (lower, upper)}``. Each
@@ -143,6 +148,12 @@ class DesignSpace(eqx.Module):
 
     def profile(self, u: ArrayLike) -> ToothProfile | FreeformProfile:
         """The tooth profile at coordinate ``u`` (traceable)."""
+        return profile_of(self.design(u))
+
+    def design(self, u: ArrayLike) -> ToothProfile | FreeformProfile | SprocketDesign:
+        """The design at coordinate ``u``: the template with the chosen leaves set
+        (traceable); the tooth profile itself unless the template is a
+        :class:`SprocketDesign`."""
         x = self.values(u)
         parts, at = [], 0
         for shape in self.shapes:
@@ -155,18 +166,23 @@ class DesignSpace(eqx.Module):
         )  # fmt: skip
 
     def coordinates(self, profile: ToothProfile | ArrayLike, margin: float = 1e-6) -> Array:
-        """The coordinate ``u`` of a profile (or of the parameter values) in the box;
-        values on or beyond a bound are pulled ``margin`` (as a fraction of the range)
-        inside."""
+        """The coordinate ``u`` of a design (a profile, or a :class:`SprocketDesign` of
+        a space over one) or of the parameter values in the box; values on or beyond a
+        bound are pulled ``margin`` (as a fraction of the range) inside."""
         checks.real("margin", margin, lo=0.0, hi=0.5, lo_open=True, hi_open=True)
-        if isinstance(profile, AbstractProfile):
-            t = self.template
-            if profile.teeth != t.teeth or not np.allclose(
-                [profile.pitch, profile.roller_diameter], [t.pitch, t.roller_diameter]
+        if isinstance(profile, AbstractProfile | SprocketDesign):
+            if isinstance(profile, SprocketDesign) != isinstance(self.template, SprocketDesign):
+                raise TypeError(
+                    f"coordinates: this space designs a {type(self.template).__name__}; "
+                    f"got a {type(profile).__name__}"
+                )
+            t, tooth = profile_of(self.template), profile_of(profile)
+            if tooth.teeth != t.teeth or not np.allclose(
+                [tooth.pitch, tooth.roller_diameter], [t.pitch, t.roller_diameter]
             ):
                 raise ValueError(
-                    f"coordinates: the profile ({profile.teeth} teeth, pitch "
-                    f"{float(profile.pitch):.6g} m) is not of this design space's sprocket "
+                    f"coordinates: the profile ({tooth.teeth} teeth, pitch "
+                    f"{float(tooth.pitch):.6g} m) is not of this design space's sprocket "
                     f"({t.teeth} teeth, pitch {float(t.pitch):.6g} m)"
                 )
             x = jnp.concatenate(
@@ -253,12 +269,15 @@ def _check_box_sampled(space: DesignSpace) -> None:
              rng.integers(0, 2, (64, n)).astype(float)]
         )  # fmt: skip
     eps = 1e-9
+    what = "designs" if isinstance(space.template, SprocketDesign) else "tooth profiles"
     for pick in picks:
         frac = np.clip(pick, eps, 1 - eps)
         u = np.log(frac) - np.log1p(-frac)
         try:
-            p = space.profile(jnp.asarray(u))
-            type(p).__check_init__(p)
+            d = space.design(jnp.asarray(u))
+            for part in (profile_of(d), getattr(d, "cushion", None)):
+                if part is not None:
+                    type(part).__check_init__(part)
         except (ValueError, FloatingPointError) as e:
             corner = (
                 "middle"
@@ -271,7 +290,7 @@ def _check_box_sampled(space: DesignSpace) -> None:
             if len(corner) > 300:
                 corner = corner[:300] + " …"
             raise ValueError(
-                f"the design box reaches outside valid tooth profiles: at its corner ({corner}) {e}"
+                f"the design box reaches outside valid {what}: at its corner ({corner}) {e}"
             ) from None
 
 
