@@ -14,6 +14,8 @@ __all__ = ["real", "integer", "choice", "flag", "instance", "pair", "fields"]
 
 
 def _range(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    if lo == -math.inf and hi == math.inf:
+        return ""
     if hi == math.inf:
         return f"> {lo:g}" if lo_open else f">= {lo:g}"
     if lo == -math.inf:
@@ -52,15 +54,18 @@ def real(
         kind = type(value).__name__
     rng = _range(lo, hi, lo_open, hi_open)
     unit = f" {unit}" if unit else ""
+    if not rng:  # any finite number: "a real number (degrees)"
+        rng, unit = unit.strip(), ""
+    rng = f" {rng}" if rng else ""
     if kind is not None:
-        raise TypeError(f"{name} must be a real number {rng}{unit}, got {kind} {value!r}")
+        raise TypeError(f"{name} must be a real number{rng}{unit}, got {kind} {value!r}")
     v = float(value)
     if not math.isfinite(v):
-        raise ValueError(f"{name} must be a finite number {rng}{unit}, got {v}")
+        raise ValueError(f"{name} must be a finite number{rng}{unit}, got {v}")
     below = v <= lo if lo_open else v < lo
     above = v >= hi if hi_open else v > hi
     if below or above:
-        raise ValueError(f"{name} must be {rng}{unit}, got {v:g}")
+        raise ValueError(f"{name} must be{rng}{unit}, got {v:g}")
     return v
 
 

@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from . import _checks as checks
 from ._numerics import is_concrete
 
 __all__ = ["AbstractLoad", "Constant", "Ramped", "Harmonic", "camshaft_torque", "as_load"]
@@ -126,6 +127,13 @@ class Harmonic(AbstractLoad):
                 raise ValueError(
                     f"Harmonic: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
                 )
+            for part, v in zip(("order", "amplitude", "phase"), h, strict=True):
+                if np.shape(v) != ():
+                    raise ValueError(
+                        f"Harmonic: harmonics[{k}]'s {part} must be a scalar, got shape "
+                        f"{np.shape(v)} (one (order, amplitude, phase) row per harmonic; "
+                        "a load per ensemble member is one Harmonic per scene)"
+                    )
         self.mean = jnp.asarray(mean, dtype=float)
         self.orders = jnp.asarray([h[0] for h in rows], dtype=float).reshape(-1)
         self.amplitudes = jnp.asarray([h[1] for h in rows], dtype=float).reshape(-1)
@@ -184,21 +192,22 @@ def camshaft_torque(
     speed, where the valves' inertia unloads the springs). These are a model's numbers,
     not a measured engine's: for a given engine, fit :class:`Harmonic` to its torque.
     """
-    for name, v, lo in (
-        ("lift", lift, 0.0), ("duration_deg", duration_deg, 0.0), ("rate", rate, -1.0),
-        ("preload", preload, -1.0), ("mass", mass, -1.0), ("engine_rpm", engine_rpm, -1.0),
+    for name, v, unit in (("lift", lift, "m"), ("duration_deg", duration_deg, "(cam degrees)")):
+        checks.real(f"camshaft_torque: {name}", v, lo=0.0, lo_open=True, unit=unit)
+    checks.real("camshaft_torque: duration_deg", duration_deg, hi=720.0, hi_open=True)
+    for name, v, unit in (
+        ("rate", rate, "N/m"), ("preload", preload, "N"), ("mass", mass, "kg"),
+        ("engine_rpm", engine_rpm, "rpm (the crank's speed; 0: no valve inertia)"),
     ):  # fmt: skip
-        if not (np.isfinite(v) and v > lo):
-            rng = "> 0" if lo == 0.0 else ">= 0"
-            raise ValueError(f"camshaft_torque: {name} must be finite and {rng}, got {v!r}")
-    if not 0 < duration_deg < 720.0:
-        raise ValueError(
-            f"camshaft_torque: duration_deg (crank degrees) must be in (0, 720), got "
-            f"{duration_deg!r}"
-        )
+        checks.real(f"camshaft_torque: {name}", v, lo=0.0, unit=unit)
+    for name, v, unit in (("friction", friction, "N·m"), ("phase_deg", phase_deg, "(degrees)")):
+        checks.real(f"camshaft_torque: {name}", v, unit=unit)
     for name, v in (("cylinders", cylinders), ("valves", valves), ("orders", orders)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-            raise ValueError(f"camshaft_torque: {name} must be a positive integer, got {v!r}")
+        checks.integer(f"camshaft_torque: {name}", v, lo=1)
+    checks.integer(
+        "camshaft_torque: cylinders·orders (the highest camshaft order kept)",
+        cylinders * orders, lo=1, hi=1024,
+    )  # fmt: skip
     n = 4096
     phi = 2 * np.pi * np.arange(n) / n
     width = np.radians(duration_deg) / 2  # cam angle

@@ -240,7 +240,8 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         "--speeds",
         type=_floats,
         default=None,
-        help="quiet: speed factors (of 1000 rpm) of the clearance-chain measurement (default 1)",
+        help="quiet: speed factors (of 1000 rpm) of the clearance-chain measurement "
+        "(default 0.3,0.5,1,1.5,2: the design band and two speeds outside it; --fast: 1)",
     )
     ap.add_argument(
         "--viscosity",
@@ -323,6 +324,13 @@ def main(argv=None) -> dict:
                 f"python -m optimize: error: --{name} is an option of --problem quiet; "
                 f"--problem {settings.problem} does not use it"
             )
+    if settings.scene == "engagement":  # what only the closed drive uses
+        for name, flag in (("pretension", "--pretension"), ("driven_teeth", "--driven-teeth")):
+            if getattr(args, name) != getattr(parse([])[1], name):
+                raise SystemExit(
+                    f"python -m optimize: error: {flag} sets the closed drive of --scene "
+                    "drive; the engagement scene (the default) does not use it"
+                )
     # several processes (python -m jaxchain.launch -n N -m optimize, or srun): the operating
     # points are shared among them; process 0 reports and writes, all read a checkpoint
     jc.distributed.initialize()
@@ -346,31 +354,37 @@ def main(argv=None) -> dict:
         raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
 
 
-# the options --problem quiet reads (and those every problem has)
-QUIET_OPTIONS = {
-    "problem", "speeds", "viscosity", "clearance_engagements", "iterations", "out",
-    "resume", "fast", "quiet", "given",
-}  # fmt: skip
+# the options every problem reads, and those of the named problems
+COMMON_OPTIONS = {"problem", "out", "resume", "fast", "quiet", "given", "iterations"}
+NAMED_OPTIONS = {
+    "quiet": {"speeds", "viscosity", "clearance_engagements"},
+    "timing": set(),
+}
+
+
+def _refuse_unused(args, problem: str, what: str) -> None:
+    """Exit with a message naming the options given that ``problem`` does not use."""
+    used = COMMON_OPTIONS | NAMED_OPTIONS[problem]
+    defaults = vars(parse([])[1])
+    unused = sorted(
+        k for k, v in vars(args).items()
+        if k not in used and k not in FAST and v != defaults.get(k)
+    )  # fmt: skip
+    unused += sorted(k for k in FAST if k in args.given and k not in used)
+    if unused:
+        reads = ", ".join("--" + k.replace("_", "-") for k in sorted(used - {"given", "problem"}))
+        raise SystemExit(
+            f"python -m optimize: error: --problem {problem} {what} and does not use "
+            + ", ".join("--" + k.replace("_", "-") for k in unused)
+            + f" (it reads {reads})"
+        )
 
 
 def _quiet(args) -> dict:
     """``--problem quiet`` (:mod:`optimize.quiet`)."""
     from . import quiet
 
-    defaults = vars(parse([])[1])
-    unused = sorted(
-        k for k, v in vars(args).items()
-        if k not in QUIET_OPTIONS and k not in FAST and v != defaults.get(k)
-    )  # fmt: skip
-    unused += sorted(k for k in FAST if k in args.given and k not in QUIET_OPTIONS)
-    if unused:
-        raise SystemExit(
-            "python -m optimize: error: --problem quiet designs the main job's default "
-            "problems and does not use "
-            + ", ".join("--" + k.replace("_", "-") for k in unused)
-            + " (it reads --speeds, --clearance-engagements, --viscosity, --iterations, "
-            "--out, --resume, --fast)"
-        )
+    _refuse_unused(args, "quiet", "designs the main job's default problems")
     q = quiet.QuietSettings()
     if args.speeds is not None:
         q.speeds = tuple(args.speeds)
@@ -385,25 +399,30 @@ def _quiet(args) -> dict:
         q.fast = True
         if "clearance_engagements" not in args.given:
             q.engagements = 4
-    out = args.out if args.out != Path("results/optimize") else Path("results/optimize_quiet")
-    try:
-        q.validate()
-        _writable(out)
-        return quiet.run(q, out, resume=args.resume, quiet=args.quiet)
-    except KeyboardInterrupt:
-        sys.exit(130)
-    except ValueError as e:
-        raise SystemExit(f"python -m optimize: error: {e}") from None
-    except jc_errors() as e:
-        raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
+        if args.speeds is None:
+            q.speeds = (1.0,)
+    return _run_named(quiet.run, q, args, "results/optimize_quiet")
 
 
-def jc_errors() -> tuple:
+def _run_named(run, settings, args, default_out: str) -> dict:
+    """Validate ``settings`` and the output folder (``--out``, else ``default_out``),
+    then ``run(settings, out, resume=, quiet=)``: bad input, an interrupt and a stopped
+    simulation end the process with a message, not a traceback."""
     import jaxchain as jc
 
     from .run import RunFailed
 
-    return (jc.SolveError, RunFailed)
+    out = args.out if args.out != Path("results/optimize") else Path(default_out)
+    try:
+        settings.validate()
+        _writable(out)
+        return run(settings, out, resume=args.resume, quiet=args.quiet)
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except ValueError as e:
+        raise SystemExit(f"python -m optimize: error: {e}") from None
+    except (jc.SolveError, RunFailed) as e:
+        raise SystemExit(f"python -m optimize: the run stopped: {e}") from None
 
 
 def _timing(args) -> dict:
@@ -412,20 +431,13 @@ def _timing(args) -> dict:
 
     from . import timing
 
+    _refuse_unused(args, "timing", "designs a timing drive of its own")
     s = timing.TimingSettings()
     if "iterations" in args.given:
         s.iterations = args.iterations
     if args.fast or os.environ.get("JAXCHAIN_FAST") == "1":
         s = dataclasses.replace(s, **timing.FAST)
-    out = args.out if args.out != Path("results/optimize") else Path("results/optimize_timing")
-    try:
-        s.validate()
-        _writable(out)
-        return timing.run(s, out, resume=args.resume, quiet=args.quiet)
-    except KeyboardInterrupt:
-        sys.exit(130)
-    except ValueError as e:
-        raise SystemExit(f"python -m optimize: error: {e}") from None
+    return _run_named(timing.run, s, args, "results/optimize_timing")
 
 
 if __name__ == "__main__":

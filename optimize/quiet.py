@@ -44,7 +44,7 @@ import numpy as np
 import jaxchain as jc
 
 from . import clearance
-from .problem import Settings, iso_forms, make_problem, solve_all
+from .problem import Settings, iso_forms, make_problem, profile_values, solve_all
 from .run import (
     RESULTS,
     delivered_design,
@@ -68,7 +68,9 @@ POPULATIONS = {1: "first", 2: "second"}
 class QuietSettings:
     """What defines a quiet run (saved with its results)."""
 
-    speeds: tuple[float, ...] = (1.0,)  # speed factors (of 1000 rpm) measured in clearance
+    # speed factors (of 1000 rpm) measured in the clearance chain: the design band's
+    # 500, 1000 and 1500 rpm and two speeds outside it
+    speeds: tuple[float, ...] = (0.3, 0.5, 1.0, 1.5, 2.0)
     engagements: int = 64  # per speed and lubrication: >= 30 per roller population
     viscosity: float = 0.01  # the lubricated measurement's oil [Pa·s] (hot engine oil)
     iterations: int | None = None  # of each design run (None: RING_ITERATIONS for the
@@ -120,6 +122,14 @@ def _design_run(qs: QuietSettings, name: str, out: Path, resume: bool, quiet: bo
     return run_design(settings, folder, resume=resume_it, quiet=quiet)
 
 
+def _space_of(design):
+    """The design space whose leaves name a design's numbers (None: the ISO four)."""
+    if isinstance(design, jc.ToothProfile):
+        return None
+    problem = "ring" if isinstance(design, jc.design.SprocketDesign) else "gentle"
+    return make_problem(Settings(problem=problem)).space
+
+
 def _job_file(out: Path, job) -> Path:
     name, f, lub = job
     return out / "clearance" / f"{name}_{f:g}x_{lub}.json"
@@ -131,13 +141,19 @@ def measure_all(qs: QuietSettings, out: Path, designs: dict, resume: bool, quiet
     problem = make_problem(Settings())
     s = problem.settings
     jobs = [(n, f, lub) for f in qs.speeds for lub in LUBRICATIONS for n in designs]
+
+    def key(name):  # what a kept solve must have measured: the design's own numbers
+        return jsonable(profile_values(designs[name], _space_of(designs[name])))
+
     done = {}
     for job in jobs:
         path = _job_file(out, job)
         if resume and path.exists():
             row = json.loads(path.read_text())
-            if row.get("engagements") == qs.engagements and row.get("viscosity") == (
-                qs.viscosity if job[2] == "oil" else None
+            if (
+                row.get("engagements") == qs.engagements
+                and row.get("viscosity") == (qs.viscosity if job[2] == "oil" else None)
+                and row.get("design") == key(job[0])
             ):
                 done[job] = row
     todo = [j for j in jobs if j not in done]
@@ -160,7 +176,7 @@ def measure_all(qs: QuietSettings, out: Path, designs: dict, resume: bool, quiet
             engagements=qs.engagements,
             lubrication=None if viscosity is None else jc.contact.OilFilm(viscosity),
         )
-        row |= {"engagements": qs.engagements, "viscosity": viscosity}
+        row |= {"engagements": qs.engagements, "viscosity": viscosity, "design": key(name)}
         write_atomic(_job_file(out, job), json.dumps(jsonable(row)))
         log(
             f"  {name} at {f:g}x, {lub}: {len(row['peaks_N'])} engagements, "
@@ -196,7 +212,7 @@ def tables(qs: QuietSettings, rows: dict, baseline: str, names) -> list[dict]:
     population) and, against ``baseline``, the relative differences of the mean and the
     p95 with their intervals."""
     out = []
-    for f in qs.speeds:
+    for f in sorted(qs.speeds):
         for lub in LUBRICATIONS:
             entry = {"speed_factor": f, "lubrication": lub}
             base = rows[(baseline, f, lub)]
@@ -223,10 +239,29 @@ def tables(qs: QuietSettings, rows: dict, baseline: str, names) -> list[dict]:
     return out
 
 
-def goals(table: list[dict], lumped: dict) -> dict:
+def lumped_changes(runs: dict, baseline: str) -> dict:
+    """Per design: its lumped-chain re-measured peak (nominal law) against the ISO
+    form's at every operating point of the design band, as a relative change."""
+    base = runs["tooth"]["remeasured"][baseline]["johnson"]["members"]
+    out = {}
+    for name, r in runs.items():
+        mine = r["remeasured"]["optimized"]["johnson"]["members"]
+        out[name] = [
+            {
+                "speed_factor": m["speed_factor"],
+                "wear": m["wear"],
+                "change": m["peak_N"] / b["peak_N"] - 1,
+            }
+            for m, b in zip(mine, base, strict=True)
+        ]
+    return out
+
+
+def goals(table: list[dict], lumped: dict, members: dict) -> dict:
     """Each design against its goal: met where every speed and lubrication shows a mean
     and a p95 lower by the goal's fraction with intervals excluding zero, and the lumped
-    chain's worst peak no more than +5 % above the best ISO form's."""
+    chain's peak no more than +5 % above the ISO form's at every operating point of the
+    band (``members``; ``lumped``: the worst member's reduction, the runs' headline)."""
     out = {}
     for name, goal in GOALS.items():
         cells = []
@@ -243,10 +278,11 @@ def goals(table: list[dict], lumped: dict) -> dict:
                     "met": bool(met),
                 }
             )
-        lumped_ok = lumped[name] >= -LUMPED_LIMIT
+        lumped_ok = all(m["change"] <= LUMPED_LIMIT for m in members[name])
         out[name] = {
             "goal": goal,
             "lumped_reduction": lumped[name],
+            "lumped_members": members[name],
             "lumped_ok": bool(lumped_ok),
             "cells": cells,
             "met": bool(lumped_ok and all(c["met"] for c in cells)),
@@ -268,7 +304,7 @@ def run(qs: QuietSettings, out: Path, *, resume: bool = False, quiet: bool = Fal
     rows = measure_all(qs, out, designs, resume, quiet)
     table = tables(qs, rows, better, list(designs))
     lumped = {name: r["reduction_vs_better_baseline"]["johnson"] for name, r in runs.items()}
-    met = goals(table, lumped)
+    met = goals(table, lumped, lumped_changes(runs, better))
     files = {name: {k: f"{name}/{v}" for k, v in runs[name]["files"].items()} for name in runs}
     results = {
         "summary": {
@@ -285,7 +321,7 @@ def run(qs: QuietSettings, out: Path, *, resume: bool = False, quiet: bool = Fal
         "clearance": {
             "model": "rigid links on pin/bush clearance joints, rollers on bush/roller joints, "
             "Dahl joint friction; oil: jc.contact.OilFilm in every joint",
-            "rpm": [1000.0 * f for f in qs.speeds],
+            "rpm": [1000.0 * f for f in sorted(qs.speeds)],
             "engagements_requested": qs.engagements,
             "discarded_periods": clearance.DISCARD,
             "table": table,
@@ -301,10 +337,12 @@ def run(qs: QuietSettings, out: Path, *, resume: bool = False, quiet: bool = Fal
 def report(r: dict) -> str:
     lines = ["", f"against the {r['summary']['baseline']} (clearance-joint chain):"]
     for name, g in r["summary"]["goals"].items():
+        worst = max(g["lumped_members"], key=lambda m: m["change"])
         lines.append(
             f"  {name}: goal {100 * g['goal']:.0f} % lower mean and p95 -> "
-            f"{'met' if g['met'] else 'not met'}; lumped chain "
-            f"{-100 * g['lumped_reduction']:+.1f} %"
+            f"{'met' if g['met'] else 'not met'}; lumped chain: worst member "
+            f"{-100 * g['lumped_reduction']:+.1f} %, at most {100 * worst['change']:+.1f} % "
+            f"({worst['speed_factor']:g}x, wear {100 * worst['wear']:g} %)"
         )
         for c in g["cells"]:
             if c["mean_reduction"] is None:
@@ -326,7 +364,7 @@ def figure(out: Path, qs: QuietSettings, rows: dict, names: list[str]) -> None:
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    cells = [(f, lub) for f in qs.speeds for lub in LUBRICATIONS]
+    cells = [(f, lub) for f in sorted(qs.speeds) for lub in LUBRICATIONS]
     fig, axes = plt.subplots(1, len(cells), figsize=(3.2 * len(cells) + 1, 4), sharey=True)
     axes = np.atleast_1d(axes)
     rng = np.random.default_rng(0)

@@ -88,6 +88,24 @@ def test_p95_interval_covers_the_true_difference():
     assert (again.p95_ci_low, again.p95_ci_high) == (c.p95_ci_low, c.p95_ci_high)
 
 
+@pytest.mark.parametrize(
+    "call, error, match",
+    [
+        (lambda: jc.peak_statistics(np.ones((2, 5))), ValueError, r"one 1-D array.*shape \(2, 5\)"),
+        (lambda: jc.peak_statistics([900.0, -3.0, 1000.0]), ValueError, "must be >= 0 N"),
+        (lambda: jc.peak_statistics([]), ValueError, "no engagements"),
+        (lambda: jc.peak_statistics([1.0, np.nan]), ValueError, "must be finite"),
+        (lambda: jc.peak_statistics("900 N"), TypeError, "array of forces"),
+        (lambda: jc.compare_peaks(np.zeros(5), np.ones(5)), ValueError, "all 0 N.*undefined"),
+        (lambda: jc.compare_peaks(np.ones((2, 3)), np.ones(6)), ValueError, "one 1-D array"),
+        (lambda: jc.compare_peaks([1.0, 2.0], [3.0]), ValueError, ">= 2 engagements"),
+    ],
+)
+def test_statistics_refuse_what_they_cannot_summarize(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
 def test_populations_tell_first_and_second_rollers():
     """Rollers 2k and 2k + 1 share inner link k: the one of each pair that meshed first
     on a sprocket is population 1, its partner 2, per member and sprocket; a roller whose

@@ -95,8 +95,35 @@ def test_camshaft_torque_is_the_valve_trains_torque():
     assert float(fast.amplitudes[0]) < float(slow.amplitudes[0])
     with pytest.raises(ValueError, match="duration_deg"):
         jc.loads.camshaft_torque(duration_deg=800.0)
-    with pytest.raises(ValueError, match="lift must be finite and > 0"):
+    with pytest.raises(ValueError, match="lift must be > 0 m"):
         jc.loads.camshaft_torque(lift=0.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, match",
+    [
+        (dict(phase_deg=float("nan")), ValueError, "phase_deg must be a finite number"),
+        (dict(engine_rpm=-0.5), ValueError, r"engine_rpm must be >= 0 rpm"),
+        (dict(friction=float("inf")), ValueError, "friction must be a finite number"),
+        (dict(mass=-1e-3), ValueError, "mass must be >= 0 kg"),
+        (dict(duration_deg=720.0), ValueError, r"duration_deg must be < 720"),
+        (dict(cylinders=0), ValueError, "cylinders must be an integer >= 1"),
+        (dict(valves=2.0), TypeError, "valves must be an integer"),
+        (dict(orders=True), TypeError, "orders must be an integer"),
+        (dict(cylinders=8, orders=200), ValueError, r"highest camshaft order kept\) must be"),
+        (dict(lift="8 mm"), TypeError, "lift must be a real number"),
+    ],
+)
+def test_camshaft_torque_refuses_bad_input(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        jc.loads.camshaft_torque(**kwargs)
+
+
+def test_harmonic_refuses_an_array_where_a_number_belongs():
+    with pytest.raises(ValueError, match=r"harmonics\[0\]'s amplitude must be a scalar"):
+        jc.loads.Harmonic(1.0, ((2, np.array([1.0, 2.0]), 0.0),))
+    with pytest.raises(ValueError, match=r"harmonics\[1\]'s phase must be a scalar"):
+        jc.loads.Harmonic(1.0, ((2, 1.0, 0.0), (4, 1.0, np.zeros(3))))
 
 
 def test_statics_hold_the_load_at_its_start_value(cam_drive):

@@ -159,7 +159,7 @@ def test_quiet_problem_delivers_both_designs_and_resumes(tmp_path):
 
 
 def test_quiet_refuses_options_it_does_not_use():
-    with pytest.raises(SystemExit, match="does not use --dt, --learning-rate.*reads --speeds"):
+    with pytest.raises(SystemExit, match="does not use --dt, --learning-rate.*reads .*--speeds"):
         main(["--problem", "quiet", "--dt", "2e-6", "--learning-rate", "0.1", "--quiet"])
     with pytest.raises(SystemExit, match="--speeds is an option of --problem quiet"):
         main(["--speeds", "1,2", "--fast", "--quiet"])
@@ -167,6 +167,15 @@ def test_quiet_refuses_options_it_does_not_use():
         main(["--problem", "quiet", "--speeds", "9", "--quiet"])
     with pytest.raises(SystemExit, match=r"engagements must be in \[2, 1000\]"):
         main(["--problem", "quiet", "--clearance-engagements", "1", "--quiet"])
+
+
+def test_options_a_problem_does_not_use_are_refused():
+    with pytest.raises(SystemExit, match="--problem timing designs a timing drive.*--chain"):
+        main(["--problem", "timing", "--chain", "06B", "--quiet"])
+    with pytest.raises(SystemExit, match="--pretension sets the closed drive of --scene drive"):
+        main(["--pretension", "300", "--fast", "--quiet"])
+    with pytest.raises(SystemExit, match="--driven-teeth sets the closed drive"):
+        main(["--driven-teeth", "40", "--fast", "--quiet"])
 
 
 def test_torque_spectrum_reads_amplitudes_and_band_rms():
@@ -240,7 +249,10 @@ def test_bad_options_are_explained():
         (["--dt", "1e-3"], "dt must be <= 2e-5 s"),
         (["--clearance-engagements", "-1"], r"clearance_engagements must be in \[0, 1000\]"),
         (["--samples", "-1"], r"samples must be in \[0, 64\] \(0: the soft peak integrated"),
-        (["--pretension", "-1"], r"pretension must be a finite number > 0 \[N\], got -1.0"),
+        (
+            ["--scene", "drive", "--pretension", "-1"],
+            r"pretension must be a finite number > 0 \[N\], got -1.0",
+        ),
         # a drive whose load the pretension cannot carry: the builder's fix, in options
         (["--scene", "drive", "--load", "30"], r"pretension >= 206.4 N.*--pretension \[N\]"),
         (["--out", __file__], "test_main_job.py is a file; give a folder"),

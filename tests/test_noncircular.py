@@ -31,6 +31,28 @@ def test_chords_are_one_pitch(z, harmonics):
     assert r.max() - r.min() > 1.5 * harmonics[0][1]
 
 
+def test_seats_lie_on_the_stated_curve_with_its_phase():
+    """Every seat centre (``pitch_points``, in the sprocket's frame) lies on r(θ) = R₀ +
+    Σ Aᵢ·sin(nᵢθ + φᵢ) at its own polar angle: r − Σ Aᵢ·sin(nᵢθ + φᵢ) is one constant R₀
+    (to the polygon solve's 1e-14 relative tolerance), and R₀ sits between the circle
+    through z chords and that circle plus the amplitudes. With cos in place of sin (every
+    oval turned by a quarter of its period) the residual would scatter by the amplitudes;
+    the largest seat radius lies where the first harmonic's sine peaks."""
+    p = oval()
+    xy = np.asarray(p.pitch_points())
+    theta = np.arctan2(xy[:, 1], xy[:, 0])
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    wave = sum(a * np.sin(n * theta + ph) for n, a, ph in OVAL)
+    r0 = r - wave
+    assert np.ptp(r0) < 1e-12, np.ptp(r0)
+    circle = float(CHAIN.pitch) / (2 * math.sin(math.pi / 18))
+    assert abs(r0.mean() - circle) < sum(a for _, a, _ in OVAL)
+    turned = r - sum(a * np.cos(n * theta + ph) for n, a, ph in OVAL)
+    assert np.ptp(turned) > 1e-3  # what the sin → cos swap would leave (amplitude 1 mm)
+    top = theta[np.argmax(r)] % math.pi  # 2nd order: the oval's long axis, mod π
+    assert abs(top - (math.pi / 2 - 0.3) / 2 % math.pi) < math.pi / 18  # within a seat
+
+
 def test_without_harmonics_it_is_the_base():
     base = jc.ToothProfile.iso606(CHAIN, 18)
     same = jc.FreeformProfile.noncircular(base, ())
@@ -82,6 +104,12 @@ def test_drawing_and_refusals(tmp_path):
     p = oval()
     path = p.to_dxf(tmp_path / "oval.dxf")
     assert path.stat().st_size > 1000
+    with pytest.raises(ValueError, match=r"below z/2 = 9 \(the 18 seats sample"):
+        oval(harmonics=((9, 1e-4, 0.0),))
+    with pytest.raises(ValueError, match=r"harmonics\[0\]'s amplitude must be a scalar"):
+        oval(harmonics=((2, np.array([1e-4, 2e-4]), 0.0),))
+    with pytest.raises(ValueError, match=r"harmonics\[0\]'s phase must be finite"):
+        oval(harmonics=((2, 1e-4, float("nan")),))
     with pytest.raises(ValueError, match="whole number >= 1"):
         jc.FreeformProfile.noncircular(jc.ToothProfile.iso606(CHAIN, 18), ((1.5, 1e-3, 0.0),))
     with pytest.raises(ValueError, match="must be \\(order, amplitude, phase\\)"):

@@ -43,6 +43,10 @@ def test_result_names_of_a_batch():
         (dict(dt=0.0), ValueError, r"dt must be > 0 s"),
         (dict(dt=float("inf")), ValueError, r"dt must be a finite number of seconds"),
         (dict(dt=1e-6, dt0=1e-6), ValueError, r"give dt \(fixed steps\) or dt0"),
+        # what only adaptive steps use is refused with fixed ones, not ignored
+        (dict(n_steps=10, rtol=1e-3), ValueError, r"rtol=0.001 set.*n_steps=.*ignored"),
+        (dict(dt=1e-6, atol=1e-6), ValueError, r"atol=1e-06 set.*with fixed steps \(dt="),
+        (dict(n_steps=10, max_steps=5), ValueError, r"max_steps=5 set.*drop them"),
         (
             dict(stepsize_controller=diffrax.ConstantStepSize()),
             ValueError,

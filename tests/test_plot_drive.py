@@ -145,16 +145,26 @@ def test_plot_tensions(engaged, tmp_path):
 
 def test_plot_speed(engaged, closed_drive, tmp_path):
     _, sol = engaged
-    ax = plot_speed(sol)
+    ax = plot_speed(sol, relative=False)
     (line,) = _data_lines(ax)
     np.testing.assert_allclose(line.get_ydata(), RPM, rtol=1e-9)  # the driver's prescribed
     assert "[rpm]" in ax.get_ylabel() and "[ms]" in ax.get_xlabel()
     _savefig(ax, tmp_path / "speed.png")
     scene, dsol = closed_drive
-    ax = plot_speed(dsol, scene=scene)
+    ax = plot_speed(dsol, scene=scene, relative=False)
     labels = [ln.get_label() for ln in _data_lines(ax)]
     assert labels == ["sprocket 0 (driver, z = 18)", "sprocket 1 (driven, z = 36)"]
     np.testing.assert_allclose(_data_lines(ax)[1].get_ydata(), RPM * 18 / 36)
+    # by default each sprocket's fluctuation about its own mean [%], the mean in the legend
+    ax = plot_speed(dsol, scene=scene)
+    rpm = np.asarray(dsol.sprocket_speed) * 60 / (2 * np.pi)
+    for k, line in enumerate(_data_lines(ax)):
+        np.testing.assert_allclose(line.get_ydata(), 100 * (rpm[:, k] / rpm[:, k].mean() - 1))
+        assert line.get_label().endswith(f": {rpm[:, k].mean():.1f} rpm")
+    np.testing.assert_allclose(_data_lines(ax)[0].get_ydata(), 0.0, atol=1e-9)  # the driver
+    assert "% of the mean" in ax.get_ylabel()
+    with pytest.raises(TypeError, match="relative must be True or False"):
+        plot_speed(dsol, relative="yes")
 
 
 @pytest.mark.parametrize("index", [300, -1])

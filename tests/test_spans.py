@@ -207,6 +207,12 @@ def test_design_gradient_matches_central_differences():
         (dict(gravity=9.81), "does not model gravity"),
         (dict(centre_distance=0.08), "overlap"),
         (dict(load_torque=100.0, pretension=10.0), "no static equilibrium"),
+        # what only a chain of links and rollers uses: refused, not dropped
+        (dict(restitution=0.5), "does not use restitution"),
+        (dict(joint_friction=None), "does not use joint_friction"),
+        (dict(impact_speed=2.0, settle=False), "does not use impact_speed, settle"),
+        (dict(roller_contact=jc.scenes.roller_law("08B", 0.7)), "does not use roller_contact"),
+        (dict(friction=jc.contact.CoulombFriction(0.1, 1e-2)), "does not use friction.*lumped"),
     ],
 )
 def test_what_the_span_model_does_not_model_is_refused(kw, message):
@@ -242,3 +248,20 @@ def test_every_fidelity_gives_span_tensions():
     slack, tight = np.asarray(out["span_tension"])
     np.testing.assert_allclose(tight - slack, 20.0 / float(ISO36.pitch_radius), rtol=0.02)
     np.testing.assert_allclose(tight + slack, 400.0, rtol=0.02)
+
+
+def test_observers_of_roller_forces_are_refused_on_the_span_model():
+    """The span model has no rollers: an observer that reads roller/tooth forces is
+    refused with the fix (alone or inside a penalty), not run to a zero."""
+    scene = jc.scenes.drive(CHAIN, teeth=(18, 36), fidelity="spans")
+    with pytest.raises(ValueError, match="EngagementPeaks read.*no rollers.*'lumped'"):
+        jc.observers.EngagementPeaks.for_solve(scene, 0.01)
+    with pytest.raises(ValueError, match="simulate: PeakRecord read"):
+        jc.simulate(scene, 1e-4, observers=(jc.observers.PeakRecord(),))
+    with pytest.raises(ValueError, match="soft_peak_force: SoftPeak read"):
+        jc.design.soft_peak_force(scene, 1e-4, dt=1e-5)
+    soft = jc.observers.SoftPeak(0.0, 1e-5, 50.0, 0.0)
+    speed = jc.observers.SpeedVariation(0.1, 1.0)
+    penalized = jc.design.Penalized(speed, soft, limit=1e3)
+    with pytest.raises(ValueError, match="Penalized read"):
+        jc.design.observe(scene, 1e-4, penalized, dt=1e-5)

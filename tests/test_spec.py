@@ -130,6 +130,16 @@ def test_a_strand_spec_is_the_engagement_scene():
             "centre of every sprocket",
         ),
         (lambda: S.StrandSpec(sprocket=18), "SprocketSpec"),
+        # what the strand does not use is refused, not dropped
+        (lambda: S.StrandSpec(sprocket=S.SprocketSpec(18, load=5.0)), "does not use.*load"),
+        (
+            lambda: S.StrandSpec(sprocket=S.SprocketSpec(18, load=None, centre=(0.1, 0.0))),
+            "does not use its sprocket's centre",
+        ),
+        (
+            lambda: S.StrandSpec(sprocket=S.SprocketSpec(18, load=None, inertia=1e-3)),
+            "does not use its sprocket's inertia.*DriveSpec",
+        ),
         (lambda: S.DriveSpec.of(teeth=(18, 36, 27), load_torque=(1.0,)), "2 values"),
     ],
 )

@@ -23,6 +23,7 @@ from .._observers.base import (
     AbstractStepObserver,
     SampledSoftPeak,
     SoftPeak,
+    check_rollers,
     window_weight as window_weight,
 )
 from .._profiles.iso import ToothProfile
@@ -95,6 +96,7 @@ def _observe(scene, t1, observer, opts: SolveOptions, caller: str) -> Observed:
     t1 = jnp.asarray(t1, dtype=float)
     scene = strong_scene(scene, caller)
     check_horizon(scene, t1, caller)
+    check_rollers(scene, (observer,), caller)
     traj = solve(scene, jnp.asarray(0.0, dtype=float), t1, None, resolved, (observer,))
     return Observed(traj.observed[0], traj.result, traj.stats["num_steps"])
 

@@ -15,7 +15,7 @@ Both read the drive's forces from the same evaluation the dynamics use, and fini
 from __future__ import annotations
 
 import abc
-from typing import Any
+from typing import Any, ClassVar
 
 import equinox as eqx
 import jax
@@ -51,7 +51,12 @@ __all__ = [
 
 
 class AbstractObserver(eqx.Module):
-    """Something computed along a solve; ``value`` turns its final state into the result."""
+    """Something computed along a solve; ``value`` turns its final state into the result.
+
+    ``reads_rollers``: whether it reads the rollers' contact forces (a scene without
+    rollers, ``fidelity="spans"``, refuses it)."""
+
+    reads_rollers: ClassVar[bool] = False
 
     @abc.abstractmethod
     def value(self, state: Any, t0: Array, t1: Array) -> Any:
@@ -98,6 +103,27 @@ class LoadWork(AbstractIntegralObserver):
         return state
 
 
+def check_rollers(scene: Scene, observers, caller: str) -> None:
+    """``ValueError`` if an observer that reads the rollers' contact forces is given a
+    scene without rollers."""
+    readers = [type(o).__name__ for o in observers if _reads_rollers(o)]
+    if readers and scene.n_rollers == 0:
+        raise ValueError(
+            f"{caller}: {', '.join(readers)} read(s) the roller/tooth forces, and this scene "
+            "has no rollers (fidelity='spans': its spans are springs between the sprockets' "
+            "pitch curves); use fidelity='lumped' or 'clearance', or observe what the span "
+            "model has (OrderSpectrum, BandLevel or SpeedVariation of its tensions and speeds)"
+        )
+
+
+def _reads_rollers(observer) -> bool:
+    """Whether ``observer`` (or an observer it holds) reads roller forces."""
+    if observer.reads_rollers:
+        return True
+    held = [v for v in vars(observer).values() if isinstance(v, AbstractObserver)]
+    return any(_reads_rollers(o) for o in held)
+
+
 # ---------------------------------------------------------------------------- peak record
 def _roller_forces(y: DriveState, scene: Scene) -> Float[Array, " R"]:
     """(R,) each roller's tooth force, summed over sprockets."""
@@ -124,6 +150,8 @@ class PeakRecord(AbstractStepObserver):
         samples: intervals per step (static, ≥ 2: a parabola needs a start, an interior
             and an end sample).
     """
+
+    reads_rollers: ClassVar[bool] = True
 
     samples: int = eqx.field(static=True, default=4)
 
@@ -233,6 +261,8 @@ class SoftPeak(AbstractIntegralObserver):
         reference: F_ref [N].
     """
 
+    reads_rollers: ClassVar[bool] = True
+
     t_start: Float[Array, ""]
     rise: Float[Array, ""]
     temperature: Float[Array, ""]
@@ -301,6 +331,8 @@ class SampledSoftPeak(AbstractStepObserver):
         t_start, rise, temperature, reference: as :class:`SoftPeak`'s.
         samples: parts per step (static, ≥ 1).
     """
+
+    reads_rollers: ClassVar[bool] = True
 
     t_start: Float[Array, ""]
     rise: Float[Array, ""]

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
@@ -51,7 +51,7 @@ from .._numerics import is_concrete, parabola_max
 from .._scene import Scene
 from .._solve.result import Result
 from .._solve.simulate import Solution
-from .base import AbstractStepObserver
+from .base import AbstractStepObserver, check_rollers
 
 __all__ = [
     "EngagementPeaks",
@@ -159,6 +159,8 @@ class EngagementPeaks(AbstractStepObserver):
         samples: intervals per step (static, ≥ 2), as :class:`PeakRecord`'s.
     """
 
+    reads_rollers: ClassVar[bool] = True
+
     window: Float[Array, ""]
     threshold: Float[Array, ""]
     capacity: int = eqx.field(static=True, default=1)
@@ -203,6 +205,8 @@ class EngagementPeaks(AbstractStepObserver):
         margin = checks.real("margin", margin, lo=1.0, unit="(factor on the speed)")
         if np.ndim(scene.q0) != 2:
             raise ValueError("EngagementPeaks.for_solve: give one scene, not a stacked one")
+        if scene.n_rollers == 0:
+            check_rollers(scene, [cls(1.0, 1.0, capacity=1)], "EngagementPeaks.for_solve")
         rate = max(abs(float(s.speed)) * s.profile.teeth / (2 * math.pi) for s in scene.sprockets)
         passes = math.ceil(margin * t1 * rate / scene.n_rollers) + 1
         return cls(window, threshold, capacity=passes, samples=samples)
@@ -500,7 +504,16 @@ class PeakComparison(NamedTuple):
 
 def _peaks(x, name: str) -> np.ndarray:
     v = x.peak if isinstance(x, Engagements) else x
-    v = np.asarray(v, dtype=float).ravel()
+    if isinstance(v, (str, bytes)) or isinstance(v, dict):
+        raise TypeError(f"{name}: peaks must be an array of forces [N], got {type(v).__name__}")
+    v = np.asarray(v, dtype=float)
+    if v.ndim > 1:
+        raise ValueError(
+            f"{name}: peaks must be one 1-D array of per-engagement peaks, got shape "
+            f"{v.shape}: pass each design's peaks on its own (compare_peaks(a, b) compares "
+            "two), or flatten them if they really are one sample"
+        )
+    v = v.ravel()
     if v.size == 0:
         raise ValueError(
             f"{name}: no engagements (lengthen the solve, lower t_start, or check that the "
@@ -508,6 +521,11 @@ def _peaks(x, name: str) -> np.ndarray:
         )
     if not np.all(np.isfinite(v)):
         raise ValueError(f"{name}: peaks must be finite")
+    if np.any(v < 0):
+        raise ValueError(
+            f"{name}: peaks are normal contact forces and must be >= 0 N, got a minimum of "
+            f"{v.min():g}"
+        )
     return v
 
 
@@ -561,6 +579,11 @@ def compare_peaks(
     if min(sa.n, sb.n) < 2:
         raise ValueError(
             f"compare_peaks: each side needs >= 2 engagements for a variance, got {sa.n} and {sb.n}"
+        )
+    if sa.mean == 0:
+        raise ValueError(
+            "compare_peaks: the baseline a's peaks are all 0 N, so the relative difference "
+            "is undefined: is a the right record (did its rollers mesh)?"
         )
     d = sb.mean - sa.mean
     va, vb = sa.std**2 / sa.n, sb.std**2 / sb.n

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _checks as checks
 from .._scene import Scene
 from .._solve.simulate import Solution
 
@@ -184,14 +185,18 @@ def plot_tensions(
     return ax
 
 
-def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None):
-    """Sprocket speeds [rpm] against time [ms] (positive counter-clockwise).
+def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None, relative: bool = True):
+    """Sprocket speeds against time [ms] (positive counter-clockwise).
 
-    With ``scene`` the lines are labelled with each sprocket's role (driver, driven, or
-    idler: a loop's sprocket without load) and tooth count.
-    Returns the Axes.
+    ``relative`` (default): each sprocket's speed fluctuation, (ω − ω̄)/ω̄ in per cent of
+    its own mean over the solution (the mean in the legend [rpm]), so that a driven
+    sprocket's polygonal speed variation shows beside the driver's constant speed;
+    otherwise the speeds themselves [rpm]. With ``scene`` the lines are labelled with each
+    sprocket's role (driver, driven, or idler: a loop's sprocket without load) and tooth
+    count. Returns the Axes.
     """
     _solution(sol, "plot_speed", scene)
+    checks.flag("relative", relative)
     ax = _new_ax(ax)
     t_ms = np.asarray(sol.ts) * 1e3
     rpm = np.asarray(sol.sprocket_speed, dtype=float) * 60 / (2 * math.pi)
@@ -204,12 +209,20 @@ def plot_speed(sol: Solution, *, ax=None, scene: Scene | None = None):
             if spr.driven and idle:
                 role = "idler"
             label += f" ({role}, z = {spr.profile.teeth})"
-        ax.plot(t_ms, rpm[:, k], lw=1.2, label=label)
+        mean = float(np.mean(rpm[:, k])) if rpm.shape[0] else math.nan
+        if relative and mean != 0:
+            ax.plot(t_ms, 100 * (rpm[:, k] / mean - 1), lw=1.2, label=f"{label}: {mean:.1f} rpm")
+        else:
+            ax.plot(t_ms, rpm[:, k], lw=1.2, label=label)
     ax.set_xlabel("time [ms]")
-    ax.set_ylabel("sprocket speed [rpm]")
+    if relative:
+        ax.set_ylabel("speed − its mean [% of the mean]")
+        ax.set_title("Sprocket speed fluctuation")
+    else:
+        ax.set_ylabel("sprocket speed [rpm]")
+        ax.set_title("Sprocket speeds")
     if t_ms.size:
         ax.set_xlim(t_ms[0], t_ms[-1])
-    ax.set_title("Sprocket speeds")
     ax.grid(True, lw=0.4, alpha=0.5)
     ax.legend(fontsize=8, loc="best")
     return ax

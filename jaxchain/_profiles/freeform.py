@@ -174,11 +174,27 @@ class FreeformProfile(AbstractProfile):
                 raise ValueError(
                     f"noncircular: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
                 )
+            for part, v in zip(("order", "amplitude", "phase"), h, strict=True):
+                if np.shape(v) != ():
+                    raise ValueError(
+                        f"noncircular: harmonics[{k}]'s {part} must be a scalar, got shape "
+                        f"{np.shape(v)}"
+                    )
+                if is_concrete(v) and not np.isfinite(float(v)):
+                    raise ValueError(
+                        f"noncircular: harmonics[{k}]'s {part} must be finite, got {v}"
+                    )
         orders = np.asarray([float(h[0]) for h in rows], dtype=float)
         if np.any((orders < 1) | (orders != np.round(orders))):
             raise ValueError(
                 f"noncircular: every order must be a whole number >= 1 (cycles per "
                 f"revolution of a closed pitch curve), got {orders.tolist()}"
+            )
+        if np.any(2 * orders >= base.teeth):
+            raise ValueError(
+                f"noncircular: every order must be below z/2 = {base.teeth / 2:g} (the "
+                f"{base.teeth} seats sample the pitch curve: an order of z/2 or more is "
+                f"seen as a lower one, or as none), got {orders.tolist()}"
             )
         dtype = jnp.result_type(base.pitch)
         amplitudes = jnp.stack([jnp.asarray(h[1], dtype) for h in rows]) if rows else jnp.zeros(0)

@@ -204,6 +204,25 @@ def drive(
         link_damping=link_damping,
         lubrication=lubrication,
     )
+    if fidelity == "spans":  # what only a chain of links and rollers uses: refused
+        unused = {
+            "restitution": restitution != 0.7,
+            "friction": friction is not None,
+            "joint_friction": not (isinstance(joint_friction, str) and joint_friction == "default"),
+            "impact_speed": impact_speed != 1.0,
+            "rollers_on_bush": rollers_on_bush is not None,
+            "roller_contact": roller_contact is not None,
+            "settle": settle is not True,
+            "shoe_contact": shoe_contact is not None,
+        }
+        given = [name for name, is_given in unused.items() if is_given]
+        if given:
+            raise ValueError(
+                f"fidelity='spans' has no rollers, links or joints and does not use "
+                f"{', '.join(given)} (its spans are axial springs between the sprockets' "
+                "pitch curves, its start always settled, its shoes frictionless circles): "
+                "leave them at their defaults, or use fidelity='lumped' or 'clearance'"
+            )
     gravity = as_gravity(gravity)
     rollers_on_bush = rollers_on_bush_of(chain, rollers_on_bush)
     if cushion is not None and fidelity == "spans":

@@ -318,6 +318,22 @@ class StrandSpec(_ChainModel):
                 "StrandSpec.cushion must be a jc.elements.CushionRing or None, got "
                 f"{type(self.cushion).__name__} {self.cushion!r}"
             )
+        sp = self.sprocket
+        unused = {
+            "load": (sp.load is not None and not (isinstance(sp.load, float | int) and
+                                                  sp.load == 0), "StrandSpec.tension sets it"),
+            "centre": (sp.centre is not None, "the strand is laid out about the axis"),
+            "inertia": (sp.inertia is not None, "the strand's driver turns at its set speed"),
+            "outside": (sp.outside, "the strand meshes on the sprocket's teeth"),
+        }  # fmt: skip
+        given = [f"{name} ({why})" for name, (set_, why) in unused.items() if set_]
+        if given:
+            raise ValueError(
+                "StrandSpec: the meshing strand does not use its sprocket's "
+                + ", ".join(given)
+                + ": leave them at None (load=None, outside=False), or use a DriveSpec, "
+                "whose sprockets use them"
+            )
         ring = self.sprocket.cushion
         if self.cushion is not None and ring is not None and ring is not self.cushion:
             raise ValueError(

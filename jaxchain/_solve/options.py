@@ -41,6 +41,8 @@ class Resolved(NamedTuple):
 #: millisecond), and a step that overflows leaves its controller with a NaN step size that
 #: rejects every later step.
 DEFAULT_DT0 = 1e-7
+# the adaptive steps' settings, at their defaults (fixed steps refuse them set otherwise)
+_DEFAULTS = {"rtol": 1e-6, "atol": 1e-9, "max_steps": 200_000}
 
 
 class SolveOptions(eqx.Module):
@@ -80,11 +82,11 @@ class SolveOptions(eqx.Module):
     """
 
     solver: diffrax.AbstractSolver | None = None
-    rtol: float = 1e-6
-    atol: float = 1e-9
+    rtol: float = _DEFAULTS["rtol"]
+    atol: float = _DEFAULTS["atol"]
     dt0: ArrayLike | None = None
     dt: float | None = None
-    max_steps: int = 200_000
+    max_steps: int = _DEFAULTS["max_steps"]
     stepsize_controller: diffrax.AbstractStepSizeController | None = None
     adjoint: diffrax.AbstractAdjoint | None = None
     progress: bool = False
@@ -143,6 +145,22 @@ class SolveOptions(eqx.Module):
                 raise ValueError(
                     "give n_steps (fixed steps) or dt/dt0/stepsize_controller, not both: "
                     "n_steps sets the step count and the constant step-size controller itself"
+                )
+        if self.dt is not None or self.n_steps is not None:
+            # what only adaptive steps use, given with fixed ones: refused, not ignored
+            unused = [
+                f"{name}={getattr(self, name)!r}"
+                for name in ("rtol", "atol", "max_steps")
+                if is_concrete(getattr(self, name))
+                and not np.array_equal(getattr(self, name), _DEFAULTS[name])
+            ]
+            if unused:
+                fixed = "dt" if self.dt is not None else "n_steps"
+                raise ValueError(
+                    f"{', '.join(unused)} set(s) the adaptive steps' error control and "
+                    f"budget; with fixed steps ({fixed}=...) the step count is fixed and they "
+                    "would be ignored: drop them, or drop "
+                    f"{fixed} for adaptive steps"
                 )
         if isinstance(c, diffrax.ConstantStepSize) and self.dt0 is None:
             raise ValueError("a fixed step (ConstantStepSize) needs dt0 > 0 [s] (or use dt=)")

@@ -11,7 +11,12 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._numerics import is_concrete
-from .._observers.base import AbstractIntegralObserver, AbstractStepObserver, PeakRecord
+from .._observers.base import (
+    AbstractIntegralObserver,
+    AbstractStepObserver,
+    PeakRecord,
+    check_rollers,
+)
 from .._programs import stored
 from .._scene import Scene
 from .options import SolveOptions, with_options
@@ -271,6 +276,7 @@ def simulate(
     t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
     check_horizon(scene, t1a, "simulate")
     observers = _checked_observers(observers, "simulate")
+    check_rollers(scene, observers, "simulate")
     traj = _solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(), *observers))
     saved = traj.saved
     if throw:
