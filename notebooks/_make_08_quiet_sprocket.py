@@ -91,11 +91,14 @@ for ax, lub in zip(axes, ("dry", "oil")):
     data = [peaks[pops == 1], peaks[pops == 2]]
     ax.boxplot(data, whis=(5, 95), showfliers=False)
     for k, y in enumerate(data):
-        ax.scatter(k + 1 + np.random.default_rng(k).uniform(-0.12, 0.12, y.size), y, s=10,
-                   alpha=0.6)
+        ax.scatter(
+            k + 1 + np.random.default_rng(k).uniform(-0.12, 0.12, y.size), y, s=10, alpha=0.6
+        )
         s = jc.peak_statistics(y)
-        print(f"{lub:3s} {('first', 'second')[k]:6s} roller: n {s.n}, mean {s.mean:.0f} N "
-              f"[{s.ci_low:.0f}, {s.ci_high:.0f}], p95 {s.p95:.0f} N")
+        print(
+            f"{lub:3s} {('first', 'second')[k]:6s} roller: n {s.n}, mean {s.mean:.0f} N "
+            f"[{s.ci_low:.0f}, {s.ci_high:.0f}], p95 {s.p95:.0f} N"
+        )
     c = jc.compare_peaks(data[0], data[1])
     print(f"    second − first: {c.difference:+.0f} N [{c.ci_low:.0f}, {c.ci_high:.0f}]")
     ax.set_xticks([1, 2], ["first roller", "second roller"])
@@ -119,8 +122,11 @@ eps = np.linspace(0.0, 0.95, 96)
 # the joints as the clearance chain builds them: pin in bush (the bush's length between
 # the outer plates), bush in roller (95 % of the inner width)
 joints = {
-    "pin in bush": (chain.pin_clearance, chain.pin_diameter / 2,
-                    chain.inner_width + 2 * chain.plate_thickness),
+    "pin in bush": (
+        chain.pin_clearance,
+        chain.pin_diameter / 2,
+        chain.inner_width + 2 * chain.plate_thickness,
+    ),
     "bush in roller": (chain.roller_clearance, chain.bush_diameter / 2, 0.95 * chain.inner_width),
 }
 fig, ax = plt.subplots(figsize=(6.5, 4))
@@ -149,11 +155,17 @@ seats further out, which is where the ring stops working:"""
     new_code_cell(
         """ring = jc.elements.CushionRing.load(RUN / results["summary"]["designs"]["tooth_ring"]["cushion"])
 tooth = jc.load_profile(RUN / results["summary"]["designs"]["tooth_ring"]["profile"])
-edge = float(chain.pitch) / (2 * math.sin(math.pi / 18)) * math.cos(math.pi / 18) - float(
-    chain.plate_height) / 2
-print(f"ring radius {float(ring.radius) * 1e3:.3f} mm ({(float(ring.radius) - edge) * 1e3:+.3f} mm "
-      f"into the seated plates), K {float(ring.stiffness):.3g} N/m^1.5, "
-      f"damping {float(ring.damping):.2f} s/m")
+edge = (
+    float(chain.pitch) / (2 * math.sin(math.pi / 18)) * math.cos(math.pi / 18)
+    - float(chain.plate_height) / 2
+)
+print(
+    f"ring radius {float(ring.radius) * 1e3:.3f} mm ({(float(ring.radius) - edge) * 1e3:+.3f} mm "
+    f"into the seated plates), K {float(ring.stiffness):.3g} N/m^1.5, "
+    f"damping {float(ring.damping):.2f} s/m"
+)
+
+
 def at_rest(cushion, wear):
     scene = jc.scenes.engagement(chain, 18, profile=tooth, cushion=cushion, elongation=wear)
     return jc.simulate(scene, 1e-7, n_save=2)
@@ -191,8 +203,11 @@ d = x[b] - x[a]
 n = np.array([-d[1], d[0]]) / np.linalg.norm(d)
 plate = np.stack([x[a], x[b]]) + el.sides[0] * float(el.half_height) * 1e3 * n
 centre = np.asarray(scene.sprockets[0].centre) * 1e3
-ax.add_patch(plt.Circle(centre, float(ring.radius) * 1e3, fill=False, color="C2", lw=1.5,
-                        label="cushion ring"))
+ax.add_patch(
+    plt.Circle(
+        centre, float(ring.radius) * 1e3, fill=False, color="C2", lw=1.5, label="cushion ring"
+    )
+)
 ax.plot(*plate.T, color="C3", lw=3, label="plate edge of the landing link")
 mid = x[[a, b]].mean(axis=0)
 ax.set_xlim(mid[0] - 12, mid[0] + 12)
@@ -222,12 +237,16 @@ the lumped chain):"""
     ),
     new_code_cell(
         """for name, g in results["summary"]["goals"].items():
-    print(f"{name}: goal {100 * g['goal']:.0f} % -> {'met' if g['met'] else 'not met'} "
-          f"(lumped chain, worst member: {-100 * g['lumped_reduction']:+.1f} %)")
+    print(
+        f"{name}: goal {100 * g['goal']:.0f} % -> {'met' if g['met'] else 'not met'} "
+        f"(lumped chain, worst member: {-100 * g['lumped_reduction']:+.1f} %)"
+    )
     for c in g["cells"]:
-        print(f"   {1000 * c['speed_factor']:.0f} rpm {c['lubrication']:3s}: mean "
-              f"{-100 * c['mean_reduction']:+.1f} %, p95 {-100 * c['p95_reduction']:+.1f} %"
-              f"{'' if c['resolved'] else '  (an interval spans zero)'}")
+        print(
+            f"   {1000 * c['speed_factor']:.0f} rpm {c['lubrication']:3s}: mean "
+            f"{-100 * c['mean_reduction']:+.1f} %, p95 {-100 * c['p95_reduction']:+.1f} %"
+            f"{'' if c['resolved'] else '  (an interval spans zero)'}"
+        )
 names = [baseline, "tooth", "tooth_ring"]
 cells = [(f, lub) for f in speeds for lub in ("dry", "oil")]
 fig, axes = plt.subplots(1, len(cells), figsize=(3.4 * len(cells) + 1, 4.2), sharey=True)
@@ -237,9 +256,15 @@ for ax, (f, lub) in zip(np.atleast_1d(axes), cells):
         ax.boxplot([peaks], positions=[k + 1], whis=(5, 95), showfliers=False, widths=0.6)
         for pop, (m, colour) in {1: ("o", "C0"), 2: ("^", "C3")}.items():
             y = peaks[pops == pop]
-            ax.scatter(k + 1 + np.random.default_rng(pop).uniform(-0.15, 0.15, y.size), y,
-                       s=9, marker=m, color=colour, alpha=0.6,
-                       label=("first", "second")[pop - 1] + " roller" if k == 0 else None)
+            ax.scatter(
+                k + 1 + np.random.default_rng(pop).uniform(-0.15, 0.15, y.size),
+                y,
+                s=9,
+                marker=m,
+                color=colour,
+                alpha=0.6,
+                label=("first", "second")[pop - 1] + " roller" if k == 0 else None,
+            )
     ax.set_xticks(range(1, len(names) + 1), names, rotation=20)
     ax.set_title(f"{1000 * f:.0f} rpm, {lub}")
     ax.grid(alpha=0.3, axis="y")
