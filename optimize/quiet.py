@@ -357,36 +357,50 @@ def report(r: dict) -> str:
 
 
 def figure(out: Path, qs: QuietSettings, rows: dict, names: list[str]) -> None:
-    """The designs' per-engagement peaks side by side, per speed and lubrication, each
-    roller population its own marker."""
+    """``peaks.png`` in ``out``: :func:`draw`."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    cells = [(f, lub) for f in sorted(qs.speeds) for lub in LUBRICATIONS]
-    fig, axes = plt.subplots(1, len(cells), figsize=(3.2 * len(cells) + 1, 4), sharey=True)
-    axes = np.atleast_1d(axes)
+    fig = draw(rows, qs.speeds, names)
+    save_figure(fig, out / "peaks.png")
+    plt.close(fig)
+
+
+def draw(rows: dict, speeds, names: list[str]):
+    """The designs' per-engagement peaks side by side, a row per lubrication and a column
+    per speed, each roller population its own marker (``rows``: (design, speed factor,
+    lubrication) → a solve's ``peaks_N`` and ``populations``). Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    speeds = sorted(speeds)
+    fig, axes = plt.subplots(
+        len(LUBRICATIONS), len(speeds), figsize=(2.9 * len(speeds) + 1, 7.5),
+        sharey="row", squeeze=False,
+    )  # fmt: skip
     rng = np.random.default_rng(0)
-    for ax, (f, lub) in zip(axes, cells, strict=True):
-        data = [np.asarray(rows[(n, f, lub)]["peaks_N"]) for n in names]
-        ax.boxplot(data, whis=(5, 95), showfliers=False)
-        for i, n in enumerate(names):
-            pops = np.asarray(rows[(n, f, lub)]["populations"])
-            for k, (marker, color) in {1: ("o", "tab:blue"), 2: ("^", "tab:red")}.items():
-                y = data[i][pops == k]
-                x = i + 1 + rng.uniform(-0.15, 0.15, y.size)
-                label = f"{POPULATIONS[k]} roller" if i == 0 else None
-                ax.scatter(x, y, s=10, marker=marker, color=color, alpha=0.6, label=label)
-        ax.set_xticks(range(1, len(names) + 1), names, rotation=20)
-        ax.set_title(f"{1000 * f:.0f} rpm, {lub}")
-        ax.grid(alpha=0.3, axis="y")
-    axes[0].set_ylabel("per-engagement peak roller/tooth force [N]")
-    axes[0].legend(loc="upper right", fontsize=8)
+    for row, lub in enumerate(LUBRICATIONS):
+        for ax, f in zip(axes[row], speeds, strict=True):
+            data = [np.asarray(rows[(n, f, lub)]["peaks_N"]) for n in names]
+            ax.boxplot(data, whis=(5, 95), showfliers=False)
+            for i, n in enumerate(names):
+                pops = np.asarray(rows[(n, f, lub)]["populations"])
+                for k, (marker, color) in {1: ("o", "tab:blue"), 2: ("^", "tab:red")}.items():
+                    y = data[i][pops == k]
+                    x = i + 1 + rng.uniform(-0.15, 0.15, y.size)
+                    label = f"{POPULATIONS[k]} roller" if i == 0 else None
+                    ax.scatter(x, y, s=8, marker=marker, color=color, alpha=0.6, label=label)
+            ax.set_xticks(range(1, len(names) + 1), names, rotation=20)
+            ax.set_title(f"{1000 * f:.0f} rpm, {lub}", fontsize=10)
+            ax.grid(alpha=0.3, axis="y")
+        axes[row, 0].set_ylabel(f"{lub} joints: per-engagement peak [N]")
+    axes = axes[:, 0]
+    axes[0].legend(loc="upper left", fontsize=8)
     fig.suptitle(
         "Clearance-joint chain: meshing peaks of the ISO form and the designs "
         "(boxes: quartiles, whiskers 5-95 %)",
         fontsize=10,
     )
-    save_figure(fig, out / "peaks.png")
-    plt.close(fig)
+    fig.tight_layout()
+    return fig
