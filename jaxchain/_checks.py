@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -155,6 +157,25 @@ def file_header(data, *, format: str, version: int, what: str, writer: str) -> N
             f"written in {what} format version {found}, newer than this jaxchain reads (up "
             f"to {version}); update jaxchain to load it"
         )
+
+
+def write_text_file(path, text: str, what: str) -> Path:
+    """Write ``text`` to ``path`` beside its final name, then move it there (a reader never
+    sees half a file); returns the path. An OS error names the path given (not the
+    temporary file) and what was being written."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        message = f"cannot write the {what} file {str(path)!r}: {e.strerror or e}"
+        raise (type(e)(e.errno, message) if e.errno else type(e)(message)) from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
 
 
 def read_json_file(path, what: str, parse):

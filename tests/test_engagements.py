@@ -120,6 +120,9 @@ def test_populations_tell_first_and_second_rollers():
         end=np.zeros(7),
     )
     assert ev.populations().tolist() == [1, 2, 0, 1, 2, 2, 1]
+    assert ev.select(sprocket=1).roller.tolist() == [2, 3]
+    with pytest.raises(TypeError, match="Engagements.select: sprocket must be an integer"):
+        ev.select(sprocket="1")
 
 
 # ---------------------------------------------------------------------------- event logic

@@ -182,7 +182,7 @@ def test_an_unfinished_write_leaves_the_old_file(tmp_path, monkeypatch):
     """The file is replaced whole: a failure while writing keeps the old one."""
     path = ISO.save(tmp_path / "p.json")
     before = path.read_text()
-    import jaxchain._profiles.record as io
+    import jaxchain._checks as io  # (profiles and rings write through its helper)
 
     def broken(*a, **k):
         raise OSError("disk full")
@@ -201,6 +201,11 @@ def test_a_missing_file_is_named(tmp_path):
         jc.load_profile(path)
     with pytest.raises(IsADirectoryError):
         jc.load_profile(tmp_path)
+    # writing into a missing folder names the path given, not the temporary beside it
+    with pytest.raises(FileNotFoundError, match=r"cannot write the profile file '.*nowhere/p"):
+        ISO.save(path)
+    with pytest.raises(FileNotFoundError, match=r"cushion ring file '.*nowhere/profile.json'"):
+        jc.elements.CushionRing(0.03).save(path)
 
 
 def _saved(tmp_path, change=None, text=None):

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -41,7 +40,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._chain import as_chain
-from .._checks import fields, file_header, read_json_file
+from .._checks import fields, file_header, read_json_file, write_text_file
 from .._kinematics import perp, points, rot, scatter
 from .._numerics import is_concrete, safe_norm, safe_normalize, safe_pow, smooth_ramp
 from .base import AbstractElement, Effect
@@ -202,15 +201,8 @@ class CushionRing(eqx.Module):
         for name in ("radius", "stiffness", "exponent", "damping", "width"):
             data[name] = float(np.asarray(getattr(self, name)))
         data["faces"] = self.faces
-        path = Path(path)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        try:
-            tmp.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n", encoding="utf-8")
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-        return path
+        text = json.dumps(data, indent=2, allow_nan=False) + "\n"
+        return write_text_file(path, text, "cushion ring")
 
     @classmethod
     def load(cls, path: str | Path) -> CushionRing:

@@ -352,7 +352,9 @@ class Engagements:
         keep = np.ones(len(self), bool)
         for name, v in (("sprocket", sprocket), ("roller", roller), ("member", member)):
             if v is not None:
-                keep &= getattr(self, name) == v
+                keep &= getattr(self, name) == checks.integer(
+                    f"Engagements.select: {name}", v, lo=0
+                )
         return Engagements(
             **{f.name: getattr(self, f.name)[keep] for f in dataclasses.fields(self)}
         )

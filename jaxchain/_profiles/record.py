@@ -35,13 +35,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
 from pathlib import Path
 
 import equinox as eqx
 import numpy as np
 
 from .._chain import ChainSpec
+from .._checks import write_text_file
 from .._numerics import is_concrete
 
 __all__ = ["FORMAT", "VERSION", "HEADER", "profile_to_dict", "save_profile"]
@@ -128,14 +128,4 @@ def save_profile(profile, path: str | Path) -> Path:
 
     The file is written beside its final name and then moved there, so a reader never
     sees half a file."""
-    path = Path(path)
-    text = _dumps(profile_to_dict(profile)) + "\n"
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+    return write_text_file(path, _dumps(profile_to_dict(profile)) + "\n", "profile")
