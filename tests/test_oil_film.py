@@ -512,3 +512,20 @@ def test_batches_jit_and_vmap_agree():
 def test_bad_fields_raise(kwargs, message):
     with pytest.raises(ValueError, match=message):
         jc.contact.OilFilm(**kwargs)
+
+
+def test_bad_arguments_are_refused_with_what_is_wrong():
+    """A vector that is not planar, and a joint of no size, are refused (where concrete),
+    not computed to a plausible zero."""
+    oil = jc.contact.OilFilm(0.01)
+    geometry = (25e-6, 2.2e-3, 11e-3)
+    with pytest.raises(ValueError, match=r"eccentricity must be a planar vector.*\(3,\)"):
+        oil.force(jnp.zeros(3), jnp.zeros(2), 0.0, *geometry)
+    with pytest.raises(ValueError, match=r"eccentricity_rate must be a planar vector"):
+        oil.force(jnp.zeros(2), 0.1, 0.0, *geometry)
+    with pytest.raises(ValueError, match="clearance must be > 0 m and finite, got -2.5e-05"):
+        oil.force(jnp.zeros(2), jnp.zeros(2), 0.0, -25e-6, 2.2e-3, 11e-3)
+    with pytest.raises(ValueError, match="OilFilm.damping: length must be > 0 m"):
+        oil.damping(0.3, 25e-6, 2.2e-3, float("nan"))
+    with pytest.raises(ValueError, match="OilFilm.friction_torque: radius must be > 0 m"):
+        oil.friction_torque(jnp.zeros(2), 10.0, 25e-6, 0.0, 11e-3)

@@ -175,6 +175,7 @@ class OilFilm(AbstractFilmLaw):
 
     def _ratio(self, eccentricity, clearance):
         """(ē = e/c with its length clamped (..., 2), the clamped ratio ε (...))."""
+        _vectors(eccentricity=eccentricity)
         e = jnp.asarray(eccentricity) / jnp.asarray(clearance)[..., None]
         ratio = safe_norm(e)
         clamped = self.clamped_ratio(ratio)
@@ -253,6 +254,8 @@ class OilFilm(AbstractFilmLaw):
         clearance c [m], journal radius R [m], bearing length L [m]. Positively
         homogeneous in w (half-Sommerfeld: not linear), faded C¹ to 0 below
         ``rate_width``."""
+        _vectors(velocity=velocity)
+        _geometry("OilFilm.squeeze_force", clearance, radius, length)
         e, ratio = self._ratio(eccentricity, clearance)
         w = jnp.asarray(velocity)
         direction = safe_normalize(w, jnp.asarray([1.0, 0.0]))
@@ -277,6 +280,7 @@ class OilFilm(AbstractFilmLaw):
         Equal to ``squeeze_force(e, ė − (ω/2)·ẑ×e, ...)``. Finite, with finite gradients,
         for any input (|e| ≥ c included: the film is that at the clamped ratio).
         """
+        _vectors(eccentricity=eccentricity, eccentricity_rate=eccentricity_rate)
         e = jnp.asarray(eccentricity)
         spin = jnp.asarray(spin)[..., None]
         turn = jnp.stack([-e[..., 1], e[..., 0]], axis=-1)  # ẑ × e
@@ -300,6 +304,7 @@ class OilFilm(AbstractFilmLaw):
         Couette shear of a full film over the whole circumference, ε the clamped ratio.
         The pressure-flow part, −(e × F)/2, is the joint's to add (it balances the pair's
         moments: :class:`~jaxchain.contact.AbstractFilmLaw`)."""
+        _geometry("OilFilm.friction_torque", clearance, radius, length)
         _, ratio = self._ratio(eccentricity, clearance)
         mu, r = self.viscosity, jnp.asarray(radius)
         factor = 2.0 * math.pi * mu * r**3 * jnp.asarray(length) / jnp.asarray(clearance)
@@ -315,8 +320,30 @@ class OilFilm(AbstractFilmLaw):
         """Radial squeeze damping [N·s/m] at eccentricity ratio ε (clamped): −F·ê/|ė| of
         the journal approaching the wall along e, the film's stiffest motion (for a
         stable-step estimate)."""
+        _geometry("OilFilm.damping", clearance, radius, length)
         ratio, c = jnp.broadcast_arrays(jnp.asarray(eccentricity_ratio), jnp.asarray(clearance))
         along = jnp.stack([jnp.ones_like(c), jnp.zeros_like(c)], axis=-1)
         clamped = self.clamped_ratio(ratio)
         unit = self._unit_force(clamped[..., None] * along, clamped, along, c, radius, length)
         return -unit[..., 0]
+
+
+def _vectors(**vectors) -> None:
+    """``ValueError`` unless each is a planar vector (or a stack of them): (..., 2)."""
+    for name, v in vectors.items():
+        shape = np.shape(v)
+        if not shape or shape[-1] != 2:
+            raise ValueError(
+                f"OilFilm: {name} must be a planar vector of shape (..., 2) [bearing frame], "
+                f"got shape {shape}"
+            )
+
+
+def _geometry(caller: str, clearance, radius, length) -> None:
+    """``ValueError`` unless the joint's clearance, radius and length are > 0 and finite
+    (checked where concrete; inside a solve they come from the built scene)."""
+    for name, v in (("clearance", clearance), ("radius", radius), ("length", length)):
+        if is_concrete(v):
+            a = np.asarray(v, dtype=float)
+            if not np.all(np.isfinite(a) & (a > 0)):
+                raise ValueError(f"{caller}: {name} must be > 0 m and finite, got {v}")
