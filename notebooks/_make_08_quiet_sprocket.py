@@ -276,11 +276,11 @@ fig = quiet.draw(rows, speeds, names)"""
   the first (1329 against 1075 N at 1000 rpm); oil in the joints takes that difference
   away (500 against 501 N) and halves the peak.
 * **The tooth alone** misses its 10 %: dry it moves the mean by +1 to −6 %, within the
-  scatter at 500 and 1000 rpm; in oil by −7 to −11 % at 1000–2000 rpm, with the p95 by only
-  −4 to −6 %. Designed against the worst member (1500 rpm), it is **worse at 500 rpm**:
+  scatter at 500 and 1000 rpm; in oil by −3 to −11 % at 1000–2500 rpm, with the p95 by only
+  +1 to −6 %. Designed against the worst member (1500 rpm), it is **worse at 500 rpm**:
   +24 % in oil, +10–11 % on the lumped chain already.
-* **The tooth with its ring** lowers the mean and p95 by 48–61 % dry and 32–37 % in oil at
-  1000–2000 rpm, and by 51 % dry but 22 % in oil at 500 rpm, where the oil has already
+* **The tooth with its ring** lowers the mean and p95 by 42–61 % dry and 32–37 % in oil at
+  1000–2500 rpm, and by 51 % dry but 22 % in oil at 500 rpm, where the oil has already
   softened the ISO form's impact. It evens out the two populations too.
 * **What the ring's gain is made of.** At rest the ring takes 1329 N of the wrap's radial
   load and three of the seven seated rollers float off their teeth: the chain rides on the

@@ -241,7 +241,7 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         type=_floats,
         default=None,
         help="quiet: speed factors (of 1000 rpm) of the clearance-chain measurement "
-        "(default 0.3,0.5,1,1.5,2: the design band and two speeds outside it; --fast: 1)",
+        "(default 0.5,1,1.5,2,2.5: the design band and two speeds above it; --fast: 1)",
     )
     ap.add_argument(
         "--viscosity",
