@@ -5,7 +5,9 @@ Default problem (``--problem gentle``): a free-form asymmetric tooth (each side 
 gap its own seat angle and a two-arc flank, plus the seating radius) for an 08B chain
 meshing an 18-tooth driver under 1000 N (the engagement scene, lumped fidelity), robust
 over speeds of 0.5, 1.0 and 1.5 × 1000 rpm and chain wear of 0 and 2 % (the worst member
-counts). ``--problem iso`` designs inside the ISO 606 box instead (four parameters).
+counts). ``--problem iso`` designs inside the ISO 606 box instead (four parameters),
+``--problem ring`` the tooth with a cushion ring, ``--problem quiet`` both re-measured in
+the clearance-joint chain dry and in oil (optimize/quiet.py).
 The design objective solves each operating point over two of its own tooth periods
 (``--horizon own``) with fixed 4 µs steps and the soft peak sampled 8 times per step
 (``--samples``): its gradient then converges as the step shrinks; over longer solves a
@@ -108,7 +110,9 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         choices=(*PROBLEMS, "timing", "quiet"),
         default=d.problem,
         help="gentle: free-form asymmetric tooth, worst peak over speeds and wear "
-        "(default); iso: the four ISO 606 parameters inside the standard's box; timing: a "
+        "(default); iso: the four ISO 606 parameters inside the standard's box; ring: the "
+        "free-form tooth with a cushion ring beside it (its radius, stiffness and damping; "
+        "the members' mean peak); timing: a "
         "timing drive's non-circular crank sprocket and tensioner against the camshafts' "
         "torque over 1000-6000 rpm (optimize/timing.py; --iterations, --out, --resume, "
         "--fast apply); quiet: the tooth alone and the tooth with a cushion ring "
