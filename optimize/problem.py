@@ -196,7 +196,7 @@ class Problem:
         :class:`~jaxchain.design.SprocketDesign`: its tooth and its cushion ring) at one
         operating point."""
         s = self.settings
-        profile, cushion = _parts(design)
+        profile, cushion = jc.design.profile_of(design), getattr(design, "cushion", None)
         rpm = s.speed_rpm * speed_factor
         if s.scene == "engagement":
             # the window is set by the slowest member; a faster one meshes more rollers
@@ -377,13 +377,6 @@ def _gentle(chain: jc.ChainSpec, teeth: int) -> tuple[jc.FreeformProfile, dict]:
         "cw.curvature": (8.0, 50.0),
         "ccw.curvature": (20.0, 50.0),
     }
-
-
-def _parts(design):
-    """(tooth profile, cushion ring or None) of a design."""
-    if isinstance(design, SprocketDesign):
-        return design.profile, design.cushion
-    return design, None
 
 
 def seated_plate_edge(chain: jc.ChainSpec, teeth: int) -> float:

@@ -143,8 +143,8 @@ def measure_all(qs: QuietSettings, out: Path, designs: dict, resume: bool, quiet
     s = problem.settings
     jobs = [(n, f, lub) for f in qs.speeds for lub in LUBRICATIONS for n in designs]
 
-    def key(name):  # what a kept solve must have measured: the design's own numbers
-        return jsonable(profile_values(designs[name], _space_of(designs[name])))
+    # what a kept solve must have measured: each design's own numbers
+    keys = {n: jsonable(profile_values(d, _space_of(d))) for n, d in designs.items()}
 
     done = {}
     for job in jobs:
@@ -154,7 +154,7 @@ def measure_all(qs: QuietSettings, out: Path, designs: dict, resume: bool, quiet
             if (
                 row.get("engagements") == qs.engagements
                 and row.get("viscosity") == (qs.viscosity if job[2] == "oil" else None)
-                and row.get("design") == key(job[0])
+                and row.get("design") == keys[job[0]]
             ):
                 done[job] = row
     todo = [j for j in jobs if j not in done]
@@ -177,7 +177,7 @@ def measure_all(qs: QuietSettings, out: Path, designs: dict, resume: bool, quiet
             engagements=qs.engagements,
             lubrication=None if viscosity is None else jc.contact.OilFilm(viscosity),
         )
-        row |= {"engagements": qs.engagements, "viscosity": viscosity, "design": key(name)}
+        row |= {"engagements": qs.engagements, "viscosity": viscosity, "design": keys[name]}
         write_atomic(_job_file(out, job), json.dumps(jsonable(row)))
         log(
             f"  {name} at {f:g}x, {lub}: {len(row['peaks_N'])} engagements, "

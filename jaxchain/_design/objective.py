@@ -573,7 +573,8 @@ class ProfileObjective:
                 f"ProfileObjective: sprocket={self.config.sprocket} but the scenes have "
                 f"{n_sprockets} sprocket(s); index the designed one in [0, {n_sprockets - 1}]"
             )
-        place(scenes, self.space.template, self.config.sprocket)  # the ring is there
+        if isinstance(self.space.template, SprocketDesign):  # its ring is on the scenes
+            place(scenes, self.space.template, self.config.sprocket)
         self.evaluations += n_members
 
     def _checked(self, value, grad, out: Observed):

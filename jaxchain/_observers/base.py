@@ -106,7 +106,12 @@ class LoadWork(AbstractIntegralObserver):
 def check_rollers(scene: Scene, observers, caller: str) -> None:
     """``ValueError`` if an observer that reads the rollers' contact forces is given a
     scene without rollers."""
-    readers = [type(o).__name__ for o in observers if _reads_rollers(o)]
+    require_rollers(scene, [type(o).__name__ for o in observers if _reads_rollers(o)], caller)
+
+
+def require_rollers(scene: Scene, readers: list[str], caller: str) -> None:
+    """``ValueError`` if ``readers`` (names of what reads the rollers' contact forces) are
+    given a scene without rollers."""
     if readers and scene.n_rollers == 0:
         raise ValueError(
             f"{caller}: {', '.join(readers)} read(s) the roller/tooth forces, and this scene "

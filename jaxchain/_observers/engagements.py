@@ -51,7 +51,7 @@ from .._numerics import is_concrete, parabola_max
 from .._scene import Scene
 from .._solve.result import Result
 from .._solve.simulate import Solution
-from .base import AbstractStepObserver, check_rollers
+from .base import AbstractStepObserver, require_rollers
 
 __all__ = [
     "EngagementPeaks",
@@ -205,8 +205,7 @@ class EngagementPeaks(AbstractStepObserver):
         margin = checks.real("margin", margin, lo=1.0, unit="(factor on the speed)")
         if np.ndim(scene.q0) != 2:
             raise ValueError("EngagementPeaks.for_solve: give one scene, not a stacked one")
-        if scene.n_rollers == 0:
-            check_rollers(scene, [cls(1.0, 1.0, capacity=1)], "EngagementPeaks.for_solve")
+        require_rollers(scene, ["EngagementPeaks"], "EngagementPeaks.for_solve")
         rate = max(abs(float(s.speed)) * s.profile.teeth / (2 * math.pi) for s in scene.sprockets)
         passes = math.ceil(margin * t1 * rate / scene.n_rollers) + 1
         return cls(window, threshold, capacity=passes, samples=samples)
@@ -506,7 +505,7 @@ class PeakComparison(NamedTuple):
 
 def _peaks(x, name: str) -> np.ndarray:
     v = x.peak if isinstance(x, Engagements) else x
-    if isinstance(v, (str, bytes)) or isinstance(v, dict):
+    if isinstance(v, (str, bytes, dict)):
         raise TypeError(f"{name}: peaks must be an array of forces [N], got {type(v).__name__}")
     v = np.asarray(v, dtype=float)
     if v.ndim > 1:
@@ -570,6 +569,16 @@ def peak_statistics(peaks: Engagements | ArrayLike, confidence: float = 0.95) ->
 _BOOT = 2000  # bootstrap resamples of compare_peaks' p95 interval
 
 
+def _p95_interval(a: np.ndarray, b: np.ndarray, confidence: float) -> tuple[float, float]:
+    """Percentile-bootstrap interval on p95(b) − p95(a): ``_BOOT`` resamples of each side,
+    seeded (the same peaks give the same interval)."""
+    rng = np.random.default_rng(0)
+    boot = np.percentile(b[rng.integers(0, b.size, (_BOOT, b.size))], 95, axis=1)
+    boot -= np.percentile(a[rng.integers(0, a.size, (_BOOT, a.size))], 95, axis=1)
+    q_lo, q_hi = np.percentile(boot, [50 * (1 - confidence), 50 * (1 + confidence)])
+    return float(q_lo), float(q_hi)
+
+
 def compare_peaks(
     a: Engagements | ArrayLike, b: Engagements | ArrayLike, confidence: float = 0.95
 ) -> PeakComparison:
@@ -577,7 +586,8 @@ def compare_peaks(
     relative difference, and Welch's ``confidence`` interval on the difference (unequal
     variances; each side needs ≥ 2 engagements)."""
     c = _confidence(confidence)
-    sa, sb = peak_statistics(a, c), peak_statistics(b, c)
+    pa, pb = _peaks(a, "compare_peaks"), _peaks(b, "compare_peaks")
+    sa, sb = peak_statistics(pa, c), peak_statistics(pb, c)
     if min(sa.n, sb.n) < 2:
         raise ValueError(
             f"compare_peaks: each side needs >= 2 engagements for a variance, got {sa.n} and {sb.n}"
@@ -596,12 +606,7 @@ def compare_peaks(
     else:  # both sides constant: the difference is exact
         dof, half = math.inf, 0.0
     lo, hi = d - half, d + half
-    va, vb = _peaks(a, "compare_peaks"), _peaks(b, "compare_peaks")
-    rng = np.random.default_rng(0)
-    boot = np.percentile(
-        vb[rng.integers(0, vb.size, (_BOOT, vb.size))], 95, axis=1
-    ) - np.percentile(va[rng.integers(0, va.size, (_BOOT, va.size))], 95, axis=1)
-    q_lo, q_hi = np.percentile(boot, [50 * (1 - c), 50 * (1 + c)])
+    q_lo, q_hi = _p95_interval(pa, pb, c)
     return PeakComparison(
         a=sa,
         b=sb,
@@ -613,6 +618,6 @@ def compare_peaks(
         excludes_zero=bool(lo > 0 or hi < 0),
         confidence=c,
         p95_difference=sb.p95 - sa.p95,
-        p95_ci_low=float(q_lo),
-        p95_ci_high=float(q_hi),
+        p95_ci_low=q_lo,
+        p95_ci_high=q_hi,
     )

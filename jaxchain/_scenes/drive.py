@@ -3,7 +3,9 @@ sprockets (:mod:`.loop_drive`)."""
 
 from __future__ import annotations
 
+import inspect
 import math
+import numbers
 from collections.abc import Sequence
 from typing import Literal
 
@@ -205,17 +207,16 @@ def drive(
         lubrication=lubrication,
     )
     if fidelity == "spans":  # what only a chain of links and rollers uses: refused
-        unused = {
-            "restitution": restitution != 0.7,
-            "friction": friction is not None,
-            "joint_friction": not (isinstance(joint_friction, str) and joint_friction == "default"),
-            "impact_speed": impact_speed != 1.0,
-            "rollers_on_bush": rollers_on_bush is not None,
-            "roller_contact": roller_contact is not None,
-            "settle": settle is not True,
-            "shoe_contact": shoe_contact is not None,
-        }
-        given = [name for name, is_given in unused.items() if is_given]
+        given = [
+            name
+            for name, value in (
+                ("restitution", restitution), ("friction", friction),
+                ("joint_friction", joint_friction), ("impact_speed", impact_speed),
+                ("rollers_on_bush", rollers_on_bush), ("roller_contact", roller_contact),
+                ("settle", settle), ("shoe_contact", shoe_contact),
+            )
+            if not _is_default(name, value)
+        ]  # fmt: skip
         if given:
             raise ValueError(
                 f"fidelity='spans' has no rollers, links or joints and does not use "
@@ -447,3 +448,14 @@ def _spans(
         profiles=profiles, driven_inertia=driven_inertia, load_ramp=load_ramp,
         link_damping=link_damping, tensioner=tensioner, n_links=n_links, guides=guides,
     )  # fmt: skip
+
+
+def _is_default(name: str, value) -> bool:
+    """Whether ``value`` is :func:`drive`'s default for argument ``name``."""
+    default = inspect.signature(drive).parameters[name].default
+    if value is default:
+        return True
+    numeric = (numbers.Real,)
+    if isinstance(value, bool) or isinstance(default, bool) or isinstance(default, str):
+        return type(value) is type(default) and value == default
+    return isinstance(value, numeric) and isinstance(default, numeric) and value == default
