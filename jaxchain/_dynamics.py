@@ -2,13 +2,15 @@
 
 The forces are the sum of the scene's force elements (``Scene.force_elements``, each a
 :class:`~jaxchain.elements.AbstractElement`); this module knows the bodies, the
-sprockets and the tensioner arms, not the elements. No Python loop runs over links,
-rollers or contacts: each element is one vectorized call scattered onto bodies with
-segment sums. The only Python loops are over the (static, few) elements and sprockets.
+sprockets and the elements' own coordinates (``DriveState.dof``), not the elements. No
+Python loop runs over links, rollers or contacts: each element is one vectorized call
+scattered onto bodies with segment sums. The only Python loops are over the (static,
+few) elements and sprockets.
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import NamedTuple
 
 import jax
@@ -16,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from ._elements.base import Effect
+from ._elements.base import Effect, ElementState
 from ._elements.pairs import chain_tension
 from ._elements.rollers import RollerContacts, roller_contacts as _roller_contacts
 from ._kinematics import points as _points, span_tension as _span_tension
@@ -34,23 +36,68 @@ __all__ = [
     "roller_kinematics",
     "contact_slots_ok",
     "bristle_layout",
+    "dof_layout",
     "effects",
 ]
 
 
-class DriveState(NamedTuple):
-    """ODE state. q, v: (N, 3) bodies' (x, y, φ) and rates; theta, omega: (S,) sprockets;
-    arm, arm_rate: (A,) tensioner arm angles [rad] and rates [rad/s] (None without
-    tensioners); bristle: (F,) pre-sliding deflections [m] of the joints with
-    :class:`~jaxchain.contact.DahlFriction` (None without; order: :func:`bristle_layout`)."""
-
+class _State(NamedTuple):
     q: Float[Array, "N 3"]
     v: Float[Array, "N 3"]
     theta: Float[Array, " S"]
     omega: Float[Array, " S"]
-    arm: Float[Array, " A"] | None = None
-    arm_rate: Float[Array, " A"] | None = None
+    dof: Float[Array, " D"] | None = None
+    dof_rate: Float[Array, " D"] | None = None
     bristle: Float[Array, " F"] | None = None
+
+
+class DriveState(_State):
+    """ODE state. q, v: (N, 3) bodies' (x, y, φ) and rates; theta, omega: (S,) sprockets;
+    dof, dof_rate: (D,) the force elements' own coordinates and their rates (None when no
+    element has any; order: :func:`dof_layout`): the tensioner arms' angles [rad] first,
+    then those of the elements added to the scene; bristle: (F,) pre-sliding deflections
+    [m] of the joints with :class:`~jaxchain.contact.DahlFriction` (None without; order:
+    :func:`bristle_layout`).
+
+    ``arm``/``arm_rate`` (the tensioner arms' angles and rates) are the former names of
+    ``dof``/``dof_rate``: still accepted and read, with a deprecation warning."""
+
+    __slots__ = ()
+
+    def __new__(cls, q, v, theta, omega, dof=None, dof_rate=None, bristle=None, **old):
+        for name, new in (("arm", "dof"), ("arm_rate", "dof_rate")):
+            if name in old:
+                _renamed(name, new)
+                if (dof if new == "dof" else dof_rate) is not None:
+                    raise TypeError(f"DriveState: give {new} only, not both {new} and {name}")
+                if new == "dof":
+                    dof = old.pop(name)
+                else:
+                    dof_rate = old.pop(name)
+        if old:
+            raise TypeError(f"DriveState: unexpected arguments {sorted(old)}")
+        return super().__new__(cls, q, v, theta, omega, dof, dof_rate, bristle)
+
+    @property
+    def arm(self):
+        """Former name of :attr:`dof` (deprecated)."""
+        _renamed("arm", "dof")
+        return self.dof
+
+    @property
+    def arm_rate(self):
+        """Former name of :attr:`dof_rate` (deprecated)."""
+        _renamed("arm_rate", "dof_rate")
+        return self.dof_rate
+
+
+def _renamed(old: str, new: str) -> None:
+    warnings.warn(
+        f"DriveState.{old} is now DriveState.{new} (the force elements' own coordinates, "
+        "tensioner arms first); use the new name",
+        DeprecationWarning,
+        stacklevel=3,
+    )
 
 
 class Forces(NamedTuple):
@@ -66,7 +113,7 @@ class Forces(NamedTuple):
     arm_torque: Float[Array, " A"] | None = None  # torque of the chain on each arm [N·m]
     bristle_rate: Float[Array, " F"] | None = None  # d/dt of DriveState.bristle [m/s]
     joint_friction_power: Float[Array, ""] | None = None  # power of the joints' friction [W]
-    arm_total_torque: Float[Array, " A"] | None = None  # every element's torque on each arm
+    dof_force: Float[Array, " D"] | None = None  # every element's on the elements' coordinates
 
 
 def _check_scene(scene, caller: str) -> None:
@@ -92,16 +139,20 @@ def _check_state(y, scene, caller: str) -> None:
         )
     n, ns = scene.n_bodies, len(scene.sprockets)
     want = {"q": (n, 3), "v": (n, 3), "theta": (ns,), "omega": (ns,)}
-    na = 0 if scene.tensioners is None else scene.tensioners.count
-    if na:
-        want.update(arm=(na,), arm_rate=(na,))
-    for name in ("arm", "arm_rate"):
-        if not na and getattr(y, name) is not None:
-            raise ValueError(f"{caller}: y.{name} must be None for a scene without tensioners")
-        if na and getattr(y, name) is None:
+    nd = n_dofs(scene)
+    if nd:
+        want.update(dof=(nd,), dof_rate=(nd,))
+    for name in ("dof", "dof_rate"):
+        if not nd and getattr(y, name) is not None:
             raise ValueError(
-                f"{caller}: y.{name} must have shape ({na},) for this scene ({na} tensioner "
-                "arms), got None; start from jc.initial_state(scene)"
+                f"{caller}: y.{name} must be None for a scene whose elements have no "
+                "coordinates of their own (no tensioner arm)"
+            )
+        if nd and getattr(y, name) is None:
+            raise ValueError(
+                f"{caller}: y.{name} must have shape ({nd},) for this scene (its elements' "
+                "own coordinates: tensioner arms and the like), got None; start from "
+                "jc.initial_state(scene)"
             )
     nb = n_bristles(scene)
     if nb:
@@ -130,16 +181,50 @@ def initial_state(scene: Scene) -> DriveState:
     """The state the scene starts from (its bodies' q0, v0; the sprockets' angle0 and
     speed): what :func:`vector_field` takes as ``y`` at t0."""
     _check_scene(scene, "initial_state")
-    tn = scene.tensioners
+    starts = [el.dof_start(scene) for el in _dof_owners(scene)]
+    dof = dof_rate = None
+    if starts:
+        dof = jnp.concatenate([jnp.reshape(jnp.asarray(p, scene.q0.dtype), -1) for p, _ in starts])
+        dof_rate = jnp.concatenate(
+            [jnp.reshape(jnp.asarray(r, scene.q0.dtype), -1) for _, r in starts]
+        )
     return DriveState(
         q=scene.q0,
         v=scene.v0,
         theta=jnp.stack([s.angle0 for s in scene.sprockets]),
         omega=jnp.stack([s.speed for s in scene.sprockets]),
-        arm=None if tn is None else tn.angle0,
-        arm_rate=None if tn is None else tn.rate0,
+        dof=dof,
+        dof_rate=dof_rate,
         bristle=_zero_bristle(scene),
     )
+
+
+def dof_layout(scene: Scene) -> tuple[tuple[int, int, int], ...]:
+    """Where each force element with coordinates of its own keeps them in
+    ``DriveState.dof`` (static): (index in ``scene.force_elements``, start, count). The
+    tensioner arms come first (they precede every added element)."""
+    out, start = [], 0
+    for i, el in enumerate(scene.force_elements):
+        k = el.n_dofs(scene)
+        if k:
+            out.append((i, start, k))
+            start += k
+    return tuple(out)
+
+
+def n_dofs(scene: Scene) -> int:
+    """Length of ``DriveState.dof`` for ``scene`` (0: None)."""
+    return sum(k for *_, k in dof_layout(scene))
+
+
+def _dof_owners(scene: Scene):
+    return [scene.force_elements[i] for i, _, _ in dof_layout(scene)]
+
+
+def dof_inertia(scene: Scene) -> Array | None:
+    """(D,) the mass or inertia of each element coordinate (None: there are none)."""
+    parts = [jnp.reshape(jnp.asarray(el.dof_inertia(scene)), -1) for el in _dof_owners(scene)]
+    return jnp.concatenate(parts) if parts else None
 
 
 def bristle_layout(scene: Scene) -> tuple[tuple[str, int, int, int], ...]:
@@ -173,17 +258,24 @@ def _labelled(scene: Scene):
 
 def _element_states(y, scene: Scene):
     """Each force element's own states (None for those with none): slices of
-    ``y.bristle`` (zeros where ``y`` carries none, as in the statics)."""
-    out, start = [], 0
+    ``y.bristle`` (zeros where ``y`` carries none, as in the statics); an
+    :class:`~jaxchain.elements.ElementState` for an element with coordinates of its own
+    (slices of ``y.dof``/``y.dof_rate``)."""
+    out, start, at = [], 0, 0
     for el in scene.force_elements:
         k = el.n_states(scene)
         if not k:
-            out.append(None)
+            z = None
         elif y.bristle is None:
-            out.append(jnp.zeros((k,), y.q.dtype))
+            z = jnp.zeros((k,), y.q.dtype)
         else:
-            out.append(y.bristle[start : start + k])
+            z = y.bristle[start : start + k]
         start += k
+        d = el.n_dofs(scene)
+        if d:
+            z = ElementState(y.dof[at : at + d], y.dof_rate[at : at + d], z)
+            at += d
+        out.append(z)
     return out
 
 
@@ -270,7 +362,6 @@ def forces(t, y: DriveState, scene: Scene) -> Forces:
 def _combine(eff: list[Effect], y: DriveState, scene: Scene) -> Forces:
     dtype = y.q.dtype
     ns, nr = len(scene.sprockets), scene.n_rollers
-    na = 0 if y.arm is None else y.arm.shape[0]
     rates_ = [e.state_rate for e in eff if e.state_rate is not None]
     shoe_normal = _reported(eff, "shoe_normal")
     shoe_force = _reported(eff, "shoe_force")
@@ -283,11 +374,28 @@ def _combine(eff: list[Effect], y: DriveState, scene: Scene) -> Forces:
         element_tension=_tensions([e.tension for e in eff if e.tension is not None], dtype),
         shoe_normal=shoe_normal[0] if shoe_normal else None,
         shoe_force=shoe_force[0] if shoe_force else None,
-        arm_torque=chain_arm[0] if (chain_arm and na) else None,
+        arm_torque=chain_arm[0] if (chain_arm and chain_arm[0].shape[0]) else None,
         bristle_rate=jnp.concatenate(rates_) if rates_ else None,
         joint_friction_power=_sum(_reported(eff, "friction_power"), (), dtype),
-        arm_total_torque=_sum([e.arm_torque for e in eff], (na,), dtype) if na else None,
+        dof_force=_dof_force(eff, y, scene),
     )
+
+
+def _dof_force(eff: list[Effect], y: DriveState, scene: Scene):
+    """(D,) the generalized force on every element coordinate: each owner's own
+    ``dof_force``, plus every element's ``arm_torque`` on the tensioner arms (the first
+    coordinates); None without coordinates."""
+    if y.dof is None:
+        return None
+    parts = []
+    for i, _, k in dof_layout(scene):
+        own = eff[i].dof_force
+        parts.append(jnp.zeros((k,), y.q.dtype) if own is None else own)
+    total = jnp.concatenate(parts)
+    for e in eff:
+        if e.arm_torque is not None:
+            total = total.at[: e.arm_torque.shape[0]].add(e.arm_torque)
+    return total
 
 
 def vector_field(t, y: DriveState, scene: Scene) -> DriveState:
@@ -309,18 +417,17 @@ def rates(t, y: DriveState, scene: Scene, fr: Forces) -> DriveState:
         else:  # driver: prescribed constant speed
             dtheta.append(spr.speed)
             domega.append(jnp.zeros_like(spr.speed))
-    tn = scene.tensioners
-    arm = arm_acc = None
-    if tn is not None:
-        arm = y.arm_rate
-        arm_acc = fr.arm_total_torque / tn.inertia
+    dof = dof_acc = None
+    if y.dof is not None:
+        dof = y.dof_rate
+        dof_acc = fr.dof_force / dof_inertia(scene)
     return DriveState(
         q=y.v,
         v=acc,
         theta=jnp.stack(dtheta),
         omega=jnp.stack(domega),
-        arm=arm,
-        arm_rate=arm_acc,
+        dof=dof,
+        dof_rate=dof_acc,
         bristle=None if y.bristle is None else fr.bristle_rate,
     )
 
@@ -349,7 +456,8 @@ def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:
 
 
 def energy(t, y: DriveState, scene: Scene) -> dict[str, Array]:
-    """Mechanical energy [J]: kinetic (chain bodies, driven sprockets, tensioner arms) and
+    """Mechanical energy [J]: kinetic (chain bodies, driven sprockets, the elements' own
+    coordinates: tensioner arms and the like) and
     the energies the force elements store, by kind: elastic (link springs, joint contacts,
     roller/tooth and roller/shoe contacts, tensioner springs) and gravity's (−Σ m·g·x of
     the chain bodies, 0 without gravity). The anchors' guide springs are not included."""
@@ -359,12 +467,13 @@ def energy(t, y: DriveState, scene: Scene) -> dict[str, Array]:
     for k, spr in enumerate(scene.sprockets):
         if spr.driven:
             kinetic = kinetic + 0.5 * spr.inertia * y.omega[k] ** 2
-    tn = scene.tensioners
-    if tn is not None:
-        kinetic = kinetic + 0.5 * jnp.sum(tn.inertia * y.arm_rate**2)
+    if y.dof is not None:
+        kinetic = kinetic + 0.5 * jnp.sum(dof_inertia(scene) * y.dof_rate**2)
     out = {"kinetic": kinetic, "elastic": jnp.zeros((), y.q.dtype)}
     out["gravity"] = jnp.zeros((), y.q.dtype)
-    for el in scene.force_elements:
+    for el, z in zip(scene.force_elements, _element_states(y, scene), strict=True):
         kind = el.energy_kind
-        out[kind] = out.get(kind, jnp.zeros((), y.q.dtype)) + el.energy(t, y, scene)
+        # an element with coordinates of its own reads them from its state
+        stored = el.energy(t, y, scene, z) if el.n_dofs(scene) else el.energy(t, y, scene)
+        out[kind] = out.get(kind, jnp.zeros((), y.q.dtype)) + stored
     return out

@@ -263,6 +263,27 @@ class Scene(eqx.Module):
         own.append(Gravity(self.gravity))
         return tuple(e for e in own if e is not None) + tuple(self.elements)
 
+    def with_force_element(self, index: int, element: AbstractElement) -> Scene:
+        """This scene with ``force_elements[index]`` replaced by ``element`` (an element
+        the scene holds: a two-point group, a named one or an added one)."""
+        held = self.force_elements
+        own = len(held) - len(self.elements)
+        if index < len(self.pairs):
+            pairs = list(self.pairs)
+            pairs[index] = element
+            return dataclasses.replace(self, pairs=tuple(pairs))
+        if index >= own:
+            added = list(self.elements)
+            added[index - own] = element
+            return dataclasses.replace(self, elements=tuple(added))
+        for name in ("joint_friction", "anchors", "shoes", "tensioners"):
+            if getattr(self, name) is held[index]:
+                return dataclasses.replace(self, **{name: element})
+        raise ValueError(
+            f"Scene.with_force_element: force element {index} "
+            f"({type(held[index]).__name__}) is made from the scene's other fields"
+        )
+
     def add_elements(self, *elements: AbstractElement) -> Scene:
         """This scene with ``elements`` added to its force elements."""
         return dataclasses.replace(self, elements=tuple(self.elements) + tuple(elements))

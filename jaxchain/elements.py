@@ -8,10 +8,20 @@ A subclass implements ``effect(t, y, scene, state) -> Effect`` (generalized forc
 the chain's bodies, torques on sprockets and tensioner arms, the rates of its own
 states) and may add its stored ``energy``, its ``outputs`` (saved by ``simulate``), its
 ``max_stiffness`` (the statics' stable step) and ``n_states`` (states of its own).
+
+An element that moves (a tensioner arm, an idler on a slide) declares coordinates of
+its own: ``n_dofs``, ``dof_inertia``, ``dof_start`` and ``with_dof_start`` (where the
+statics settled it). It reads them as ``state`` (an :class:`ElementState`) and drives
+them through ``Effect.dof_force``; the equations of motion, the energy and the statics
+carry them with the chain (``DriveState.dof``).
 """
 
 from ._elements.anchors import Anchors as Anchors
-from ._elements.base import AbstractElement as AbstractElement, Effect as Effect
+from ._elements.base import (
+    AbstractElement as AbstractElement,
+    Effect as Effect,
+    ElementState as ElementState,
+)
 from ._elements.cushion import (
     CushionContacts as CushionContacts,
     CushionRing as CushionRing,

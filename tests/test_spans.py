@@ -111,11 +111,11 @@ def test_the_tensioner_shoe_is_laid_out_as_in_the_lumped_chain():
     slack, tight = np.asarray(fr.element_tension)
     np.testing.assert_allclose(slack, 200.0, rtol=1e-9)
     np.testing.assert_allclose(tight - slack, 20.0 / (36 * CHAIN.pitch / (2 * math.pi)), rtol=1e-9)
-    assert abs(float(fr.arm_total_torque[0])) < 2e-3 * float(spans.tensioners.preload[0])
+    assert abs(float(fr.dof_force[0])) < 2e-3 * float(spans.tensioners.preload[0])
     el = spans.elements[0]
     centres = jnp.stack([s.centre for s in spans.sprockets])
     for theta, arm in (([0.0, 0.0], 0.0), ([0.7, -0.2], 0.01)):
-        theta, arm = jnp.asarray(theta), y.arm + arm
+        theta, arm = jnp.asarray(theta), y.dof + arm
         jac = jax.jacfwd(el.stretch, argnums=2)(theta, centres, arm)
         lever = el.geometry(theta, centres, arm).shoe_lever
         np.testing.assert_allclose(jac[:, 0], [float(lever[0]), 0.0], atol=1e-12)

@@ -23,7 +23,7 @@ def _at_rest(y):
     return y._replace(
         v=jnp.zeros_like(y.v),
         omega=jnp.zeros_like(y.omega),
-        arm_rate=None if y.arm_rate is None else jnp.zeros_like(y.arm_rate),
+        dof_rate=None if y.dof_rate is None else jnp.zeros_like(y.dof_rate),
     )
 
 
@@ -50,7 +50,7 @@ def test_tensioner_statics(tensioned):
     y = _at_rest(initial_state(sc))
     fr = forces(0.0, y, sc)
     assert float(jnp.abs(fr.body).max()) < 1e-5
-    spring = sc.tensioners.spring_torque(y.arm, y.arm_rate)
+    spring = sc.tensioners.spring_torque(y.dof, y.dof_rate)
     np.testing.assert_allclose(fr.arm_torque, -spring, rtol=1e-8)
     np.testing.assert_allclose(fr.sprocket_torque[1], 10.0, rtol=1e-7)
     np.testing.assert_allclose(sc.sprockets[0].centre, [0.0, 0.0], atol=0)
@@ -72,7 +72,7 @@ def test_tensioner_statics(tensioned):
     np.testing.assert_allclose(shoe, closed, rtol=1e-4)  # measured 6e-6 (T_in ≈ T_out)
     assert 150.0 < 0.5 * (t_in + t_out) < 210.0  # the tensioner holds its span near 200 N
     # the arm moved a little while settling; the straight guide just touches
-    assert abs(float(y.arm[0] - sc.tensioners.layout_angle[0])) < 0.05
+    assert abs(float(y.dof[0] - sc.tensioners.layout_angle[0])) < 0.05
     assert float(jnp.linalg.norm(fr.shoe_force[1])) < 1.0
 
 
@@ -117,7 +117,7 @@ def test_shoe_contact_against_its_law(tensioned):
     r = float(sc.roller_radius)
     kappa = float(sh.curvature[0])
     centre = sh.mid[0] - sh.normal[0] / kappa  # the arc's centre at the layout
-    turn = float(y.arm[0] - sc.tensioners.layout_angle[0])
+    turn = float(y.dof[0] - sc.tensioners.layout_angle[0])
     pivot = sc.tensioners.pivot[0]
     c, s = math.cos(turn), math.sin(turn)
     rot = jnp.array([[c, -s], [s, c]])
@@ -140,9 +140,9 @@ def test_shoe_contact_against_its_law(tensioned):
     assert float(off.normal[0]) == 0.0
 
     def torque(arm):
-        return shoe_contacts(y._replace(arm=arm), sc, xr, jnp.zeros_like(xr), r).arm_torque[0]
+        return shoe_contacts(y._replace(dof=arm), sc, xr, jnp.zeros_like(xr), r).arm_torque[0]
 
-    g = jax.jit(jax.grad(torque))(y.arm)
+    g = jax.jit(jax.grad(torque))(y.dof)
     assert np.all(np.isfinite(np.asarray(g))) and float(jnp.abs(g).max()) > 0
 
 

@@ -7,6 +7,7 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike
 
 from .._checks import fields
@@ -18,6 +19,7 @@ __all__ = [
     "AbstractPointLaw",
     "hysteresis_restitution",
     "check_fields",
+    "contact_potential",
 ]
 
 
@@ -41,6 +43,28 @@ class AbstractContactLaw(eqx.Module):
         self, depth: ArrayLike, depth_rate: ArrayLike, impact_speed: ArrayLike
     ) -> Array:
         """Normal force [N], ≥ 0 (never pulls), finite with finite gradients for any input."""
+
+    def onset(self) -> Array:
+        """The depth [m] (≤ 0) below which the law carries no force: where its stored
+        energy starts (default 0; a regularized law's onset is a little below)."""
+        return jnp.zeros(())
+
+    def potential(self, depth: ArrayLike) -> Array:
+        """Energy the contact stores at ``depth`` [m] [J]: ∫ F(s, 0, ·) ds from the
+        :meth:`onset` (the force at rest, no damping), what the energy balance and the
+        statics' relaxation read. The default integrates :meth:`normal_force` by
+        Gauss–Legendre quadrature (24 nodes); a law with a closed form may override it."""
+        return contact_potential(lambda d: self.normal_force(d, 0.0, 1.0), self.onset(), depth)
+
+
+def contact_potential(force, onset, depth, n_nodes: int = 24) -> Array:
+    """∫ ``force``(s) ds from ``onset`` to ``depth`` [J] (Gauss–Legendre, ``n_nodes``
+    nodes; zero below the onset)."""
+    x, w = np.polynomial.legendre.leggauss(n_nodes)
+    hi = jnp.maximum(jnp.asarray(depth), onset)
+    half = 0.5 * (hi - onset)
+    pts = onset + half[..., None] * (x + 1.0)
+    return half * jnp.sum(w * force(pts), axis=-1)
 
 
 class AbstractHysteresisLaw(AbstractContactLaw):
@@ -94,6 +118,15 @@ class AbstractHysteresisLaw(AbstractContactLaw):
         force = self.elastic_force(depth) * smooth_ramp(bracket, self.clamp_width)
         # NaN in, NaN out: a NaN depth must not read as "no contact" (zero force)
         return jnp.where(jnp.isnan(depth), depth, force)
+
+    def onset(self) -> Array:
+        """−width: where the regularized force starts."""
+        return -jnp.asarray(self.width)
+
+    def potential(self, depth: ArrayLike) -> Array:
+        """∫ F_el from the onset (−width) to ``depth`` [J] (the damping does no work at
+        rest)."""
+        return contact_potential(self.elastic_force, self.onset(), depth)
 
     def effective_restitution(self) -> float:
         """Coefficient of restitution this law actually produces in an isolated impact

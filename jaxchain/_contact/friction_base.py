@@ -16,7 +16,8 @@ class AbstractFrictionLaw(eqx.Module):
     """A tangential contact force law F_t(F_n, v_t, z), optionally with states z of its
     own per contact (a pre-sliding deflection, a bristle).
 
-    A concrete law gives :meth:`traction` and, when ``states_per_contact`` > 0,
+    A concrete law gives :meth:`traction`, declares ``states_per_contact:
+    ClassVar[int] = k`` (a class variable, not a field) and, when k > 0,
     :meth:`state_rate`. An element that uses the law keeps ``states_per_contact`` states
     per contact in the drive state (``DriveState.bristle``), starting at zero, and
     integrates them with :meth:`state_rate`; a law without states gets ``None``.

@@ -10,7 +10,7 @@ from jaxtyping import Array, ArrayLike
 
 from .._numerics import is_concrete
 
-__all__ = ["hertz_stiffness", "effective_radius", "tangent_stiffness", "contact_potential"]
+__all__ = ["hertz_stiffness", "effective_radius", "tangent_stiffness"]
 
 
 def effective_radius(radius1: ArrayLike, radius2: ArrayLike, *, internal: bool = False) -> Array:
@@ -64,14 +64,3 @@ def tangent_stiffness(law, force):
 
     _, hi = jax.lax.fori_loop(0, 80, bisect, (jnp.log(1e-13), jnp.log(1e-2)))
     return jax.grad(f)(hi) / jnp.exp(hi)
-
-
-def contact_potential(law, depth, n_nodes: int = 24):
-    """∫ elastic force d(depth) from the law's onset (−width) to ``depth`` [J]: the energy a
-    contact of ``law`` stores at ``depth`` [m] (Gauss–Legendre, ``n_nodes`` nodes)."""
-    x, w = np.polynomial.legendre.leggauss(n_nodes)
-    lo = -law.width
-    hi = jnp.maximum(depth, lo)
-    half = 0.5 * (hi - lo)
-    pts = lo + half[..., None] * (x + 1.0)
-    return half * jnp.sum(w * law.elastic_force(pts), axis=-1)

@@ -14,7 +14,7 @@ from jaxtyping import Array, Float, Int
 from .._contact.base import AbstractContactLaw
 from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction_base import AbstractFrictionLaw, contact_states, flat_rate
-from .._contact.stiffness import contact_potential, tangent_stiffness
+from .._contact.stiffness import tangent_stiffness
 from .._kinematics import perp, points, rot, scatter
 from .._numerics import cross2, safe_norm, safe_normalize
 from .base import AbstractElement, Effect
@@ -80,7 +80,7 @@ class ClearanceJoints(eqx.Module):
 
     def stored(self, length):
         """Elastic energy of the contact at eccentricity ``length`` [J]."""
-        return contact_potential(self.law, length - self.clearance)
+        return self.law.potential(length - self.clearance)
 
     def tangent(self, force):
         """Contact stiffness [N/m] at ``force`` [N]."""

@@ -22,7 +22,7 @@ from jaxtyping import Array, Float
 
 from .._contact.base import AbstractContactLaw
 from .._contact.friction_base import AbstractFrictionLaw
-from .._contact.stiffness import contact_potential, tangent_stiffness
+from .._contact.stiffness import tangent_stiffness
 from .._kinematics import nearest, perp, points, scatter
 from .._numerics import cross2
 from .._profiles.contact import gap_contact, gap_shapes, prepare_shapes
@@ -154,7 +154,7 @@ class RollerTeeth(AbstractElement):
             rel = xr - spr.centre
             local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
             depth, _ = jax.vmap(gap_contact, in_axes=(None, 0))(spr.profile, local)
-            total = total + jnp.sum(contact_potential(self.law, depth))
+            total = total + jnp.sum(self.law.potential(depth))
         return total
 
     def max_stiffness(self, scene, force) -> Array:

@@ -25,7 +25,7 @@ from jaxtyping import Array, Float
 
 from .._contact.base import AbstractContactLaw
 from .._contact.friction_base import AbstractFrictionLaw
-from .._contact.stiffness import contact_potential, tangent_stiffness
+from .._contact.stiffness import tangent_stiffness
 from .._kinematics import nearest, points, scatter
 from .._numerics import cross2, safe_norm
 from .base import AbstractElement, Effect
@@ -98,7 +98,7 @@ class Shoes(AbstractElement):
     def energy(self, t, y, scene) -> Array:
         xr, vr, _ = points(y.q, y.v, scene.roller_body, scene.roller_offset)
         sc = shoe_contacts(y, scene, xr, vr, scene.roller_radius, self)
-        return jnp.sum(contact_potential(self.law, sc.depth) * sc.gate)
+        return jnp.sum(self.law.potential(sc.depth) * sc.gate)
 
     def outputs(self, t, y, scene, effect: Effect) -> dict[str, Array]:
         na = self.n_tensioners
@@ -158,9 +158,9 @@ def shoe_frames(y, scene):
     if sh.n_tensioners == 0:
         return zeros, jnp.zeros((n_guides, 2), sh.mid.dtype), zeros
     tn = scene.tensioners
-    turn = jnp.concatenate([y.arm - tn.layout_angle, zeros])
+    turn = jnp.concatenate([y.dof[: sh.n_tensioners] - tn.layout_angle, zeros])
     pivot = jnp.concatenate([tn.pivot, jnp.zeros((n_guides, 2), sh.mid.dtype)])
-    rate = jnp.concatenate([y.arm_rate, zeros])
+    rate = jnp.concatenate([y.dof_rate[: sh.n_tensioners], zeros])  # the arms: first
     return turn, pivot, rate
 
 

@@ -319,7 +319,7 @@ class Spans(AbstractElement):
     def effect(self, t, y, scene, state) -> Effect:
         centres = jnp.stack([s.centre for s in scene.sprockets])
         tension, torque, arm_torque = self.tensions(
-            y.theta, y.omega, centres, y.arm if self.n_shoes else None, y.arm_rate
+            y.theta, y.omega, centres, *_arms(y, self.n_shoes)
         )
         if not self.n_shoes:
             return Effect(body=jnp.zeros_like(y.q), sprocket_torque=torque, tension=tension)
@@ -333,7 +333,7 @@ class Spans(AbstractElement):
 
     def energy(self, t, y, scene) -> Array:
         centres = jnp.stack([s.centre for s in scene.sprockets])
-        e = self.stretch(y.theta, centres, y.arm if self.n_shoes else None)
+        e = self.stretch(y.theta, centres, _arms(y, self.n_shoes)[0])
         return jnp.sum(self.stiffness * _ramp_potential(e, self._width()))
 
     def outputs(self, t, y, scene, effect) -> dict[str, Array]:
@@ -341,3 +341,11 @@ class Spans(AbstractElement):
 
     def max_stiffness(self, scene, force) -> Array:
         return jnp.max(self.stiffness)
+
+
+def _arms(y, count: int):
+    """The tensioner arms' angles and rates (the first of ``y``'s element coordinates),
+    or (None, None) without shoes."""
+    if not count:
+        return None, None
+    return y.dof[:count], y.dof_rate[:count]

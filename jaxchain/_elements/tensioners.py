@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -15,10 +16,11 @@ class Tensioners(AbstractElement):
     """Pivoting tensioner arms: rigid arms turning about fixed pivots, each pressed onto
     the chain by a preloaded torsional spring with a linear (hydraulic-style) damper.
 
-    The arm's angle ψ is part of the ODE state (``DriveState.arm``). Its rotation toward
-    the chain is φ = s·(ψ − ψ_ref) (s = ``sense``, ψ_ref = ``layout_angle``), and the
-    spring and damper turn it toward the chain by τ = preload − stiffness·φ −
-    damping·φ̇ [N·m]. Its shoe is the matching entry of the scene's :class:`Shoes`.
+    The arms' angles ψ are the element's own coordinates (``DriveState.dof``, first).
+    Its rotation toward the chain is φ = s·(ψ − ψ_ref) (s = ``sense``, ψ_ref =
+    ``layout_angle``), and the spring and damper turn it toward the chain by τ = preload
+    − stiffness·φ − damping·φ̇ [N·m]. Its shoe is the matching entry of the scene's
+    :class:`Shoes`.
 
     Attributes:
         pivot: (A, 2) pivot positions [m], world frame.
@@ -54,12 +56,30 @@ class Tensioners(AbstractElement):
         press = self.preload - self.stiffness * phi - self.damping * self.sense * rate
         return self.sense * press
 
-    def effect(self, t, y, scene, state) -> Effect:
-        return Effect(body=jnp.zeros_like(y.q), arm_torque=self.spring_torque(y.arm, y.arm_rate))
+    def n_dofs(self, scene) -> int:
+        return self.count
 
-    def energy(self, t, y, scene) -> Array:
-        phi = self.sense * (y.arm - self.layout_angle)
+    def dof_inertia(self, scene) -> Array:
+        return self.inertia
+
+    def dof_start(self, scene) -> tuple[Array, Array]:
+        return self.angle0, self.rate0
+
+    def with_dof_start(self, position) -> Tensioners:
+        return eqx.tree_at(lambda tn: tn.angle0, self, position)
+
+    def force_scale(self, scene) -> Array:
+        """The largest preload over the distance from its pivot to its shoe [N]."""
+        lever = jnp.sqrt(jnp.sum((scene.shoes.mid[: self.count] - self.pivot) ** 2, -1))
+        return jnp.max(jnp.abs(self.preload) / lever)
+
+    def effect(self, t, y, scene, state) -> Effect:
+        torque = self.spring_torque(state.position, state.rate)
+        return Effect(body=jnp.zeros_like(y.q), dof_force=torque)
+
+    def energy(self, t, y, scene, state=None) -> Array:
+        phi = self.sense * (state.position - self.layout_angle)
         return jnp.sum(0.5 * self.stiffness * phi**2 - self.preload * phi)
 
     def outputs(self, t, y, scene, effect: Effect) -> dict[str, Array]:
-        return {"tensioner_angle": y.arm, "tensioner_torque": effect.arm_torque}
+        return {"tensioner_angle": y.dof[: self.count], "tensioner_torque": effect.dof_force}

@@ -40,7 +40,7 @@ import optimistix as optx
 from jaxtyping import ArrayLike
 
 from .. import _checks as checks
-from .._dynamics import DriveState, forces
+from .._dynamics import DriveState, dof_inertia, dof_layout, forces, initial_state, n_dofs
 from .._numerics import is_concrete
 from .._programs import stored
 from .._scene import Scene
@@ -51,7 +51,8 @@ __all__ = ["equilibrate", "resettle", "statics_jacobian"]
 def _unpack(scene, x, pitch):
     """Scene and state for the unknowns x: body displacements (pitches; angles in
     pitch/1 m rad), then per sprocket an angle change and an axis shift along its take-up
-    direction (pitches), then per tensioner arm an angle change (pitch/1 m rad)."""
+    direction (pitches), then per element coordinate (a tensioner arm's angle, ...) a
+    change in pitch/1 m of its unit (rad or m)."""
     n, ns = scene.n_bodies, len(scene.sprockets)
     q = scene.q0 + x[: 3 * n].reshape(n, 3) * pitch
     theta = jnp.stack([s.angle0 for s in scene.sprockets]) + x[3 * n : 3 * n + ns] * pitch
@@ -59,18 +60,20 @@ def _unpack(scene, x, pitch):
     dirs, _ = _take_up(scene)
     centres = [s.centre + shift[k] * dirs[k] for k, s in enumerate(scene.sprockets)]
     scene = eqx.tree_at(lambda sc: [s.centre for s in sc.sprockets], scene, centres)
-    arm = rate = None
-    if scene.tensioners is not None:
-        arm = scene.tensioners.angle0 + x[3 * n + 2 * ns :] * pitch
-        rate = jnp.zeros_like(arm)
+    dof = rate = None
+    if n_dofs(scene):
+        dof = initial_state(scene).dof + x[3 * n + 2 * ns :] * pitch
+        rate = jnp.zeros_like(dof)
     y = DriveState(
-        q=q, v=jnp.zeros_like(q), theta=theta, omega=jnp.zeros_like(theta), arm=arm, arm_rate=rate
+        q=q, v=jnp.zeros_like(q), theta=theta, omega=jnp.zeros_like(theta), dof=dof, dof_rate=rate
     )
     return scene, y
 
 
-def _n_arms(scene) -> int:
-    return 0 if scene.tensioners is None else scene.tensioners.count
+def _force_scales(scene) -> list:
+    """The forces the elements name as typical of what they apply at rest [N]."""
+    out = [el.force_scale(scene) for el in scene.force_elements]
+    return [jnp.asarray(f, float) for f in out if f is not None]
 
 
 def _axis_dir(scene, k):
@@ -121,18 +124,11 @@ def _residual(x, args):
     pull = jnp.sum(fr.sprocket_force * dirs, -1) + take_up
     axis = jnp.where(take_up > 0, pull / force_scale, pin[3 * n + ns : 3 * n + 2 * ns])
     parts = [res.reshape(-1), moment, axis]
-    if sc.tensioners is not None:  # each arm: the chain's moment against its spring
-        parts.append(fr.arm_total_torque / (force_scale * pitch))
+    if fr.dof_force is not None:  # each element coordinate: its generalized force
+        parts.append(fr.dof_force / (force_scale * pitch))
     # a vanishing spring (reg, scaled units) to the start: a roller floating in its bush's
     # free play has no force anywhere in it, which would make the problem rank-deficient
     return jnp.concatenate(parts) - reg * (x - x_pin)
-
-
-def _arm_force(scene):
-    """(A,) each tensioner's preload over the distance from its pivot to its shoe [N]."""
-    tn, sh = scene.tensioners, scene.shoes
-    lever = jnp.sqrt(jnp.sum((sh.mid[: tn.count] - tn.pivot) ** 2, -1))
-    return jnp.abs(tn.preload) / lever
 
 
 def _rotating_bodies(scene: Scene) -> jax.Array:
@@ -174,7 +170,7 @@ def _free_unknowns(scene, free, take_up):
     sprocket angles where ``free``; axes under a take-up."""
     rot = _rotating_bodies(scene)
     body = jnp.stack([jnp.ones_like(rot), jnp.ones_like(rot), rot], -1).reshape(-1)
-    return jnp.concatenate([body, free, take_up > 0, jnp.ones(_n_arms(scene), bool)])
+    return jnp.concatenate([body, free, take_up > 0, jnp.ones(n_dofs(scene), bool)])
 
 
 def _accelerations(scene, pitch, force_scale):
@@ -184,7 +180,7 @@ def _accelerations(scene, pitch, force_scale):
     body = jnp.stack([force_scale / (m * pitch), force_scale / (m * pitch), force_scale / j], -1)
     spr_j = jnp.stack([s.inertia for s in scene.sprockets])
     spr_m = jnp.stack([2 * s.inertia / s.profile.pitch_radius**2 for s in scene.sprockets])
-    arm = [] if scene.tensioners is None else [force_scale / scene.tensioners.inertia]
+    arm = [] if not n_dofs(scene) else [force_scale / dof_inertia(scene)]
     return jnp.concatenate(
         [body.reshape(-1), force_scale / spr_j, force_scale / (spr_m * pitch), *arm]
     )
@@ -294,11 +290,11 @@ def equilibrate(
         force_scale = max(force_scale, float(jnp.max(scene.anchors.tension)))
     for s in scene.sprockets:
         force_scale = max(force_scale, float(s.load_torque / s.profile.pitch_radius))
-    if scene.tensioners is not None:
-        force_scale = max(force_scale, float(jnp.max(_arm_force(scene))))
+    for f in _force_scales(scene):
+        force_scale = max(force_scale, float(f))
     fs = jnp.asarray(force_scale)
     n = scene.n_bodies
-    x0 = jnp.zeros(3 * n + 2 * ns + _n_arms(scene))
+    x0 = jnp.zeros(3 * n + 2 * ns + n_dofs(scene))
     tol = tolerance * force_scale
     dt = _stable_step(scene, 4 * force_scale)
     for _ in range(4):  # an unstable step is halved
@@ -341,8 +337,9 @@ def _finish(scene: Scene, x) -> Scene:
             lambda sc: sc.anchors.origin, settled, an.origin + along[:, None] * an.direction
         )
     settled = eqx.tree_at(lambda sc: sc.q0, settled, y.q)
-    if settled.tensioners is not None:
-        settled = eqx.tree_at(lambda sc: sc.tensioners.angle0, settled, y.arm)
+    for i, start, k in dof_layout(settled):  # each element starts where it settled
+        el = settled.force_elements[i].with_dof_start(y.dof[start : start + k])
+        settled = settled.with_force_element(i, el)
     for k in range(ns):
         settled = eqx.tree_at(lambda sc, k=k: sc.sprockets[k].angle0, settled, y.theta[k])
     return settled
@@ -375,10 +372,9 @@ def _resettle_args(scene: Scene, take_up) -> tuple:
     if scene.anchors is not None:
         scale.append(jnp.max(scene.anchors.tension))
     scale += [s.load_torque / s.profile.pitch_radius for s in scene.sprockets]
-    if scene.tensioners is not None:
-        scale.append(jnp.max(_arm_force(scene)))
+    scale += _force_scales(scene)
     fs = jax.lax.stop_gradient(jnp.max(jnp.stack([jnp.asarray(v, float) for v in scale])))
-    x0 = jnp.zeros(3 * n + 2 * ns + _n_arms(scene), dtype=scene.q0.dtype)
+    x0 = jnp.zeros(3 * n + 2 * ns + n_dofs(scene), dtype=scene.q0.dtype)
     return (rest, pitch, fs, _rotating_bodies(scene), driven, push, x0, 0.0)
 
 
