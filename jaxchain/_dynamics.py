@@ -20,7 +20,7 @@ from jaxtyping import Array, Float
 
 from ._elements.base import Effect, ElementState
 from ._elements.pairs import chain_tension
-from ._elements.rollers import RollerContacts, roller_contacts as _roller_contacts
+from ._elements.rollers import RollerContacts, RollerTeeth, roller_contacts as _roller_contacts
 from ._kinematics import points as _points, span_tension as _span_tension
 from ._scene import Scene
 
@@ -299,7 +299,12 @@ def roller_kinematics(y: DriveState, scene: Scene) -> tuple[Array, Array]:
 def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     """The scene's rollers against every sprocket's teeth; all the chain's other elements
     are skipped (what the per-step peak record needs)."""
-    return _roller_contacts(y, scene, scene.roller_law, scene.friction, cs)
+    teeth = RollerTeeth(scene.roller_law, scene.friction)
+    states = None
+    if teeth.n_states(scene):  # a friction law with states: this element's slice of them
+        at = [i for i, el in enumerate(scene.force_elements) if isinstance(el, RollerTeeth)][0]
+        states = teeth.contact_states(scene, _element_states(y, scene)[at])
+    return _roller_contacts(y, scene, scene.roller_law, scene.friction, cs, states)
 
 
 def contact_slots_ok(y: DriveState, scene: Scene) -> Array:

@@ -15,11 +15,12 @@ def _periods(scene, rpm, n=2.0):
     return n * 60.0 / (int(scene.sprockets[0].profile.teeth) * rpm)
 
 
+@pytest.mark.parametrize("chain", ["08B", "06C"])  # the default roller chain, a bush chain
 @pytest.mark.parametrize("builder", ["engagement", "drive"])
 @pytest.mark.parametrize("fidelity", ["lumped", "clearance"])
 @pytest.mark.parametrize("rpm", [100.0, 3000.0])
-def test_builder_defaults_run(builder, fidelity, rpm):
-    sc = getattr(jc.scenes, builder)(speed_rpm=rpm, fidelity=fidelity)
+def test_builder_defaults_run(chain, builder, fidelity, rpm):
+    sc = getattr(jc.scenes, builder)(chain, speed_rpm=rpm, fidelity=fidelity)
     sol = jc.simulate(sc, _periods(sc, rpm))
     assert sol.ok and float(sol.peak_contact_force) > 0, sol.message
 

@@ -136,8 +136,8 @@ def test_the_idler_settles_with_the_chain_and_starts_there(free_drive):
     """The statics move the idler with the chain: settled, its spring balances the
     strand's push (its coordinate's force ≈ 0), the idler carries its preload less the
     spring's give, and that push is the resultant of the two span tensions beside it,
-    |T₁·u₁ − T₂·u₂| (the closed form of a frictionless pulley); the scene starts there
-    and a simulation runs to the end, saving the idler's outputs."""
+    |T₁·u₁ − T₂·u₂| (the closed form of a frictionless pulley); the scene starts there.
+    (The test above runs the idler in the drive's dynamics.)"""
     scene = jc.scenes.equilibrate(free_drive.add_elements(_idler(free_drive, damping=20.0)))
     idler = scene.elements[-1]
     y = initial_state(scene)
@@ -158,10 +158,6 @@ def test_the_idler_settles_with_the_chain_and_starts_there(free_drive):
     u_out = (x[b + 1] - x[b]) / np.linalg.norm(x[b + 1] - x[b])
     resultant = np.linalg.norm(tension[b] * u_out - tension[a - 1] * u_in)
     np.testing.assert_allclose(resultant, push, rtol=2e-3)
-    sol = jc.simulate(scene, tooth_period(600, 9), n_save=5)
-    assert sol.result == jc.Result.successful
-    assert sol.element_outputs["idler_slide"].shape == (5,)
-    assert np.all(np.isfinite(sol.element_outputs["idler_slide"]))
 
 
 def test_an_element_with_coordinates_must_say_their_inertia(free_drive):

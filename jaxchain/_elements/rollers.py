@@ -9,6 +9,12 @@ moment −r·F_t about the bush centre acts on the link as a couple on its two b
 ±M·d⊥/|d|² (d from one bush to the other): a pure moment M on a rigid link, and on the
 lumped chain's points a pair whose power is exactly M·ω. The link's ω is that of d,
 (d × ḋ)/|d|², in both fidelities.
+
+A friction law with states of its own (:class:`~jaxchain.contact.DahlFriction`) keeps
+them per sprocket and roller (``DriveState.bristle``). They move only while their contact
+carries load: their rate is the law's times F_n/(F_n + ``STATE_GATE``), so a roller away
+from the teeth (whose slip over the nearest gap is meaningless and fast) holds its state
+instead of relaxing it at |v_t|/x_s, which would be the stiffest rate of the drive.
 """
 
 from __future__ import annotations
@@ -28,7 +34,11 @@ from .._numerics import cross2
 from .._profiles.contact import gap_contact, gap_shapes, prepare_shapes
 from .base import AbstractElement, Effect
 
-__all__ = ["RollerTeeth", "RollerContacts", "roller_contacts", "prepare"]
+__all__ = ["RollerTeeth", "RollerContacts", "roller_contacts", "prepare", "STATE_GATE"]
+
+#: normal force [N] at which a roller/tooth contact's friction states move at half their
+#: law's rate (they hold still while it carries no load)
+STATE_GATE = 1.0
 
 
 class RollerContacts(NamedTuple):
@@ -41,6 +51,7 @@ class RollerContacts(NamedTuple):
     normal: Float[Array, "S R"]  # normal force per sprocket and roller [N]
     sprocket_torque: Float[Array, " S"]
     sprocket_force: Float[Array, "S 2"]
+    state_rate: Array | None = None  # (S, R[, k]) rates of the friction's states, or None
 
 
 def _contact_slots(scene, n_rollers: int) -> int | None:
@@ -62,8 +73,10 @@ def prepare(scene):
     return eqx.tree_at(lambda s: s.prepared_shapes, scene, shapes, is_leaf=lambda x: x is None)
 
 
-def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
+def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerContacts:
     """Rollers against every sprocket (each roller sees its nearest gap: O(1) per pair).
+    ``states``: (S, R[, k]) the friction law's states per sprocket and roller (a law with
+    states of its own), else None.
 
     One vmapped evaluation over the sprockets (their tooth shapes stacked): the contact
     appears once in the traced program, so its size and the gradient's compile time do
@@ -82,7 +95,14 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
         shapes = gap_shapes([s.profile for s in scene.sprockets])
     centres = jnp.stack([s.centre for s in scene.sprockets])
 
-    def one(shape, centre, theta, omega):
+    stateful = friction is not None and friction.states_per_contact > 0
+    if stateful and states is None:
+        raise ValueError(
+            f"roller_contacts: {type(friction).__name__} keeps states per contact; pass "
+            "them (states=, per sprocket and roller)"
+        )
+
+    def one(shape, centre, theta, omega, z):
         c, s = jnp.cos(theta), jnp.sin(theta)
         rel_all = xr - centre
         if slots is None:  # every roller: no gather, no scatter (each ~30 ns per roller)
@@ -92,6 +112,7 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
             sel = nearest(rel_all, slots)[0]
             rel, vsel = rel_all[sel], vr[sel]
             spin = spin_all[sel] if bush else None
+            z = None if z is None else z[sel]
         local = jnp.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], -1)
         depth, nl = jax.vmap(gap_contact, in_axes=(None, 0))(shape, local)
         nrm = jnp.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1]], -1)
@@ -101,13 +122,17 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
         approach = -jnp.sum(nrm * vrel, -1)
         fn = law.normal_force(depth, approach, scene.impact_speed)
         f = fn[:, None] * nrm
-        moment = None
+        moment = rate = None
         if friction is not None:
             tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
             slip = jnp.sum(tang * vrel, -1)
             if bush:  # the bush surface at the contact moves by ω × (−r·n) = −r·ω·t too
                 slip = slip - r * spin
-            ft = friction.traction(fn, slip, None)
+            ft = friction.traction(fn, slip, z)
+            if stateful:  # the states move while the contact carries load (docstring)
+                gate = fn / (fn + STATE_GATE)
+                rate = friction.state_rate(z, slip)
+                rate = rate * gate.reshape(gate.shape + (1,) * (rate.ndim - 1))
             f = f + ft[:, None] * tang
             if bush:
                 moment = -r * ft  # about the bush centre: (−r·n) × (F_t·t)
@@ -117,17 +142,22 @@ def roller_contacts(y, scene, law, friction, cs=None) -> RollerContacts:
             fn = jnp.zeros(n_r, fn.dtype).at[sel].add(fn)
             if moment is not None:
                 moment = jnp.zeros(n_r, moment.dtype).at[sel].add(moment)
+            if rate is not None:  # the rollers left out hold their states
+                rate = jnp.zeros((n_r,) + rate.shape[1:], rate.dtype).at[sel].set(rate)
         if moment is not None:  # the moment onto the bush's link: a couple on its bushes
             couple = moment[:, None] * perp(d) / jnp.sum(d * d, -1)[:, None]
             f = f.at[ib].add(couple).at[ia].add(-couple)
-        return f, fn, torque, pull
+        return f, fn, torque, pull, rate
 
+    ns = centres.shape[0]
+    zs = [None] * ns if states is None else list(states)
     if isinstance(shapes, tuple):  # sprockets of kinds that do not stack: one by one
-        each = [one(*a) for a in zip(shapes, centres, y.theta, y.omega, strict=True)]
-        f, normal, torque, pull = (jnp.stack(x) for x in zip(*each, strict=True))
+        each = [one(*a) for a in zip(shapes, centres, y.theta, y.omega, zs, strict=True)]
+        f, normal, torque, pull = (jnp.stack(x) for x in list(zip(*each, strict=True))[:4])
+        rate = None if states is None else jnp.stack([e[4] for e in each])
     else:
-        f, normal, torque, pull = jax.vmap(one)(shapes, centres, y.theta, y.omega)
-    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull)
+        f, normal, torque, pull, rate = jax.vmap(one)(shapes, centres, y.theta, y.omega, states)
+    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull, rate)
 
 
 class RollerTeeth(AbstractElement):
@@ -137,12 +167,28 @@ class RollerTeeth(AbstractElement):
     law: AbstractContactLaw
     friction: AbstractFrictionLaw | None
 
+    def n_states(self, scene) -> int:
+        """A friction law's states, per sprocket and roller (module docstring)."""
+        if self.friction is None:
+            return 0
+        return len(scene.sprockets) * scene.n_rollers * self.friction.states_per_contact
+
+    def contact_states(self, scene, state):
+        """``state`` (this element's slice of the drive state) as (S, R[, k]), or None."""
+        if state is None or not self.n_states(scene):
+            return None
+        k = self.friction.states_per_contact
+        shape = (len(scene.sprockets), scene.n_rollers) + ((k,) if k > 1 else ())
+        return state.reshape(shape)
+
     def effect(self, t, y, scene, state) -> Effect:
-        rc = roller_contacts(y, scene, self.law, self.friction)
+        zs = self.contact_states(scene, state)
+        rc = roller_contacts(y, scene, self.law, self.friction, states=zs)
         return Effect(
             body=scatter(scene.n_bodies, scene.roller_body, rc.arm, rc.force),
             sprocket_torque=rc.sprocket_torque,
             sprocket_force=rc.sprocket_force,
+            state_rate=None if rc.state_rate is None else rc.state_rate.reshape(-1),
             report={"roller_normal": rc.normal},
         )
 

@@ -54,14 +54,9 @@ def check_common(
     if friction is not None:
         checks.instance(
             "friction", friction, AbstractFrictionLaw,
-            "a jc.contact.CoulombFriction (any stateless jc.contact.AbstractFrictionLaw) or None",
+            "a jc.contact.CoulombFriction, a jc.contact.DahlFriction (any "
+            "jc.contact.AbstractFrictionLaw) or None",
         )  # fmt: skip
-        if friction.states_per_contact:
-            raise ValueError(
-                f"friction: the roller/tooth contacts keep no friction states, so a law with "
-                f"states ({type(friction).__name__}) cannot act there; use a stateless law "
-                "such as jc.contact.CoulombFriction, or None"
-            )
     if joint_friction is not None and not (
         isinstance(joint_friction, str) and joint_friction == "default"
     ):
