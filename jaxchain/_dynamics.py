@@ -114,6 +114,7 @@ class Forces(NamedTuple):
     bristle_rate: Float[Array, " F"] | None = None  # d/dt of DriveState.bristle [m/s]
     joint_friction_power: Float[Array, ""] | None = None  # power of the joints' friction [W]
     dof_force: Float[Array, " D"] | None = None  # every element's on the elements' coordinates
+    tooth_friction_power: Float[Array, ""] | None = None  # of the roller/tooth friction [W]
 
 
 def _check_scene(scene, caller: str) -> None:
@@ -383,6 +384,9 @@ def _combine(eff: list[Effect], y: DriveState, scene: Scene) -> Forces:
         bristle_rate=jnp.concatenate(rates_) if rates_ else None,
         joint_friction_power=_sum(_reported(eff, "friction_power"), (), dtype),
         dof_force=_dof_force(eff, y, scene),
+        tooth_friction_power=_sum(
+            [jnp.sum(p) for p in _reported(eff, "tooth_friction_power")], (), dtype
+        ),
     )
 
 

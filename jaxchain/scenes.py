@@ -11,9 +11,11 @@ scene = spec.replace(speed_rpm=2000).build()
 """
 
 from ._scenes.build import (
+    BUSH_TOOTH_FRICTION as BUSH_TOOTH_FRICTION,
     CLEARANCE_JOINT_FRICTION as CLEARANCE_JOINT_FRICTION,
     JOINT_FRICTION as JOINT_FRICTION,
     default_joint_friction as default_joint_friction,
+    default_tooth_friction as default_tooth_friction,
     joint_law as joint_law,
     link_stiffness as link_stiffness,
     roller_law as roller_law,

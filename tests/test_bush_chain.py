@@ -176,7 +176,8 @@ def test_clearance_model_is_the_papers_bush_chain():
     link = np.asarray(sc.bush_link)  # each bush turns with its own bushing link
     np.testing.assert_array_equal(body[link[:, 0]], body)
     np.testing.assert_array_equal(body[link[:, 1]], body)
-    assert sc.friction is None  # frictionless teeth by default, as a roller chain's
+    # the bush slides on the tooth: Dahl friction by default (a roller chain: none)
+    assert sc.friction == jc.scenes.BUSH_TOOTH_FRICTION
     same = jc.scenes.engagement(
         chain, 18, fidelity="clearance", rollers_on_bush="lumped", settle=False
     )
@@ -270,7 +271,7 @@ def test_bush_slides_with_its_link(drive, law):
     ns, n_r = len(scene.sprockets), scene.n_rollers
     z = np.zeros((ns, n_r))
     if law is DAHL:
-        before = initial_state(drive).bristle
+        before = initial_state(dataclasses.replace(drive, friction=None)).bristle
         assert y.bristle.shape[0] - (0 if before is None else before.shape[0]) == ns * n_r
         z = rng.uniform(-1, 1, size=(ns, n_r)) * float(law.presliding)
         y = y._replace(bristle=y.bristle.at[-ns * n_r :].set(jnp.asarray(z.reshape(-1))))
@@ -320,6 +321,8 @@ def test_bush_slides_with_its_link(drive, law):
     assert contacts >= 5
     assert want < 0 or law is DAHL  # sliding dissipates (a random Dahl state may push)
     np.testing.assert_allclose(got, want, rtol=1e-9)
+    # what the element reports (and saves as tooth_friction_power) is that power
+    np.testing.assert_allclose(float(jnp.sum(e.report["tooth_friction_power"])), want, rtol=1e-9)
     if law is DAHL:  # loaded contacts move at the gated rate; the others hold
         np.testing.assert_allclose(
             np.asarray(e.state_rate).reshape(ns, n_r), rates, rtol=1e-9, atol=1e-12
@@ -332,20 +335,21 @@ def drive_chain_d1(scene) -> float:
 
 
 def test_tooth_friction_with_states_runs_and_differentiates():
-    """The bush chain's engagement with Dahl friction at the teeth runs with ``simulate``'s
-    defaults (lumped; its states move only under load, so the drive is no stiffer), and
-    the derivative of the bushes' total tooth force after half a tooth period in μ,
-    through a fixed-step solve (4 µs Tsit5 steps; joints' creep band widened as for every
-    fixed-step design solve), agrees with central differences of the same solve.
-    Measured at 1000 rpm: 148.0014 N per unit μ, FD 148.0013 (h = 1e-4); the regularized
-    Coulomb law at the teeth (v_s = 1 cm/s) gives an AD of 1.8e29 there."""
+    """The bush chain's engagement with its default Dahl friction at the teeth runs with
+    ``simulate``'s defaults (lumped; its states move only under load, so the drive is no
+    stiffer), and the derivative of the bushes' total tooth force after half a tooth
+    period in μ, through a fixed-step solve (4 µs Tsit5 steps; joints' creep band
+    widened as for every fixed-step design solve), agrees with central differences of
+    the same solve. Measured at 1000 rpm: 148.0014 N per unit μ, FD 148.0013 (h = 1e-4);
+    the regularized Coulomb law at the teeth (v_s = 1 cm/s) gives an AD of 1.8e29 there."""
     import jax
 
     period = tooth_period(1000, 18)
     scene = jc.scenes.engagement(
-        "06C", 18, n_entry=2, friction=DAHL, joint_friction=fixed_step_joints(),
+        "06C", 18, n_entry=2, joint_friction=fixed_step_joints(),
         roller_contact=jc.scenes.roller_law(jc.ChainSpec.iso606("06C"), 0.7, width=3e-6),
     )  # fmt: skip
+    assert scene.friction == jc.scenes.BUSH_TOOTH_FRICTION == DAHL
     sol = jc.simulate(scene, 0.5 * period, n_save=3)
     assert sol.ok, sol.message
     n = int(round(0.5 * period / 4e-6))
@@ -370,7 +374,8 @@ def test_energy_balance_without_dissipation(fidelity):
     changes exactly by the driver's work, to the trapezoid rule's error over the saves."""
     sc = jc.scenes.drive(
         "06C", teeth=(12, 24), n_links=40, speed_rpm=1000, load_torque=0.0, pretension=150.0,
-        restitution=1.0, link_damping=0.0, joint_friction=None, fidelity=fidelity,
+        restitution=1.0, link_damping=0.0, joint_friction=None, friction=None,
+        fidelity=fidelity,
     )  # fmt: skip
     err, scale = energy_balance_error(sc, 0.5 * tooth_period(1000, 12), 8001)
     assert scale > 1e-3  # the driver does work (J)

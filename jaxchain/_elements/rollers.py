@@ -52,6 +52,8 @@ class RollerContacts(NamedTuple):
     sprocket_torque: Float[Array, " S"]
     sprocket_force: Float[Array, "S 2"]
     state_rate: Array | None = None  # (S, R[, k]) rates of the friction's states, or None
+    # (S,) power of the friction on chain and sprocket [W] (Σ F_t·slip, ≤ 0 in sliding)
+    friction_power: Array | None = None
 
 
 def _contact_slots(scene, n_rollers: int) -> int | None:
@@ -122,7 +124,7 @@ def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerCont
         approach = -jnp.sum(nrm * vrel, -1)
         fn = law.normal_force(depth, approach, scene.impact_speed)
         f = fn[:, None] * nrm
-        moment = rate = None
+        moment = rate = power = None
         if friction is not None:
             tang = jnp.stack([-nrm[:, 1], nrm[:, 0]], -1)
             slip = jnp.sum(tang * vrel, -1)
@@ -134,6 +136,7 @@ def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerCont
                 rate = friction.state_rate(z, slip)
                 rate = rate * gate.reshape(gate.shape + (1,) * (rate.ndim - 1))
             f = f + ft[:, None] * tang
+            power = jnp.sum(ft * slip)
             if bush:
                 moment = -r * ft  # about the bush centre: (−r·n) × (F_t·t)
         torque, pull = jnp.sum(cross2(arm_s, -f)), -jnp.sum(f, axis=0)
@@ -147,7 +150,7 @@ def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerCont
         if moment is not None:  # the moment onto the bush's link: a couple on its bushes
             couple = moment[:, None] * perp(d) / jnp.sum(d * d, -1)[:, None]
             f = f.at[ib].add(couple).at[ia].add(-couple)
-        return f, fn, torque, pull, rate
+        return f, fn, torque, pull, rate, power
 
     ns = centres.shape[0]
     zs = [None] * ns if states is None else list(states)
@@ -155,9 +158,12 @@ def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerCont
         each = [one(*a) for a in zip(shapes, centres, y.theta, y.omega, zs, strict=True)]
         f, normal, torque, pull = (jnp.stack(x) for x in list(zip(*each, strict=True))[:4])
         rate = None if states is None else jnp.stack([e[4] for e in each])
+        power = None if friction is None else jnp.stack([e[5] for e in each])
     else:
-        f, normal, torque, pull, rate = jax.vmap(one)(shapes, centres, y.theta, y.omega, states)
-    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull, rate)
+        f, normal, torque, pull, rate, power = jax.vmap(one)(
+            shapes, centres, y.theta, y.omega, states
+        )
+    return RollerContacts(jnp.sum(f, axis=0), arm_r, normal, torque, pull, rate, power)
 
 
 class RollerTeeth(AbstractElement):
@@ -189,8 +195,15 @@ class RollerTeeth(AbstractElement):
             sprocket_torque=rc.sprocket_torque,
             sprocket_force=rc.sprocket_force,
             state_rate=None if rc.state_rate is None else rc.state_rate.reshape(-1),
-            report={"roller_normal": rc.normal},
+            report={"roller_normal": rc.normal}
+            | ({} if rc.friction_power is None else {"tooth_friction_power": rc.friction_power}),
         )
+
+    def outputs(self, t, y, scene, effect: Effect) -> dict[str, Array]:
+        """With friction at the teeth: ``tooth_friction_power`` (S,), its power on chain
+        and sprockets at each sprocket [W] (≤ 0 in sliding)."""
+        power = effect.report.get("tooth_friction_power")
+        return {} if power is None else {"tooth_friction_power": power}
 
     def energy(self, t, y, scene) -> Array:
         xr, _, _ = points(y.q, y.v, scene.roller_body, scene.roller_offset)

@@ -58,6 +58,8 @@ __all__ = [
     "CLEARANCE_JOINT_FRICTION",
     "default_joint_friction",
     "rollers_on_bush_of",
+    "BUSH_TOOTH_FRICTION",
+    "default_tooth_friction",
 ]
 
 #: Friction in the chain's joints (pin/bush, bush/roller): lubricated steel on steel,
@@ -75,6 +77,22 @@ JOINT_FRICTION = CoulombFriction(coefficient=0.1, slip_velocity=2e-3)
 CLEARANCE_JOINT_FRICTION = DahlFriction(
     coefficient=0.1, presliding=5e-6, creep_velocity=1e-4, damping=5e-6
 )
+
+
+#: Friction of a bush chain's bush sliding on the tooth (``friction="default"``):
+#: lubricated steel, μ = 0.1, with the joints' pre-sliding state (5 µm), so that the
+#: design loop's fixed steps stay stable (a velocity-regularized law there damps the
+#: link's rotation in microseconds). A roller chain's roller rolls: no default friction.
+BUSH_TOOTH_FRICTION = DahlFriction(
+    coefficient=0.1, presliding=5e-6, creep_velocity=1e-4, damping=5e-6
+)
+
+
+def default_tooth_friction(bush_chain: bool) -> AbstractFrictionLaw | None:
+    """The tooth friction a builder uses by default (``friction="default"``):
+    :data:`BUSH_TOOTH_FRICTION` for a bush chain, None (frictionless) for a roller
+    chain."""
+    return BUSH_TOOTH_FRICTION if bush_chain else None
 
 
 def default_joint_friction(fidelity: str) -> AbstractFrictionLaw:
@@ -442,7 +460,7 @@ def assemble(
     sprockets: tuple[Sprocket, ...],
     anchors: Anchors | None,
     roller_contact: AbstractContactLaw,
-    friction: AbstractFrictionLaw | None,
+    friction: AbstractFrictionLaw | str | None,
     impact_speed: float,
     fidelity: str,
     tensile_strength: float,
@@ -452,7 +470,9 @@ def assemble(
     shoes: Shoes | None = None,
 ) -> Scene:
     """A :class:`Scene` from chain bodies, sprockets and boundary conditions; ``gravity``:
-    (2,) [m/s²] (None: none)."""
+    (2,) [m/s²] (None: none); ``friction="default"``: :func:`default_tooth_friction`."""
+    if isinstance(friction, str):
+        friction = default_tooth_friction(bodies.bush_link is not None)
     return Scene(
         mass=jnp.asarray(bodies.mass),
         inertia=jnp.asarray(bodies.inertia),

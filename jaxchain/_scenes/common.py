@@ -51,11 +51,12 @@ def check_common(
     checks.choice("fidelity", fidelity, ("lumped", "clearance", "spans"))
     checks.choice("form", form, ("min", "max", "mid"))
     checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
-    if friction is not None:
+    if friction is not None and not (isinstance(friction, str) and friction == "default"):
         checks.instance(
             "friction", friction, AbstractFrictionLaw,
             "a jc.contact.CoulombFriction, a jc.contact.DahlFriction (any "
-            "jc.contact.AbstractFrictionLaw) or None",
+            "jc.contact.AbstractFrictionLaw), 'default' (a bush chain's "
+            "jc.scenes.BUSH_TOOTH_FRICTION, none for a roller chain) or None",
         )  # fmt: skip
     if joint_friction is not None and not (
         isinstance(joint_friction, str) and joint_friction == "default"

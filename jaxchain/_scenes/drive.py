@@ -61,7 +61,7 @@ def drive(
     form: Literal["min", "max", "mid"] = "mid",
     profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
     restitution: float = 0.7,
-    friction: AbstractFrictionLaw | None = None,
+    friction: AbstractFrictionLaw | str | None = "default",
     joint_friction: AbstractFrictionLaw | str | None = "default",
     lubrication: AbstractFilmLaw | None = None,
     driven_inertia: float | Sequence[float] | None = None,
@@ -144,15 +144,16 @@ def drive(
         form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
         profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
         restitution: coefficient of restitution of every contact at ``impact_speed``.
-        friction: roller/tooth friction (None: frictionless), any
-            ``jc.contact.AbstractFrictionLaw``. A bush chain's bush, fixed to its link,
-            slides on the tooth: its slip includes the link's rotation
-            (``jaxchain._elements.rollers``). Lubricated steel is about μ = 0.1:
+        friction: roller/tooth friction, any ``jc.contact.AbstractFrictionLaw``;
+            ``"default"``: a bush chain's ``jc.scenes.BUSH_TOOTH_FRICTION`` (Dahl, μ = 0.1),
+            none for a roller chain (its roller rolls); None: frictionless. A bush chain's
+            bush, fixed to its link, slides on the tooth: its slip includes the link's
+            rotation (``jaxchain._elements.rollers``). Lubricated steel is about μ = 0.1:
             ``jc.contact.CoulombFriction(0.1, slip_velocity=1e-2)``, whose regularization
             damps a light link's rotation with a time constant of microseconds (fine for
-            adaptive solves), or ``jc.contact.DahlFriction(0.1)``, whose pre-sliding
-            state (one per sprocket and roller, moving only under load) keeps fixed-step
-            design solves stable.
+            adaptive solves), or ``jc.contact.DahlFriction(0.1)``, whose pre-sliding state
+            (one per sprocket and roller, moving only under load) keeps fixed-step design
+            solves stable.
         joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
             clearance fidelity); ``"default"``: lubricated steel on steel, μ = 0.1
             (``jc.scenes.JOINT_FRICTION`` in the lumped chain,

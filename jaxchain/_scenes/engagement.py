@@ -54,7 +54,7 @@ def engagement(
     form: Literal["min", "max", "mid"] = "mid",
     profile: ToothProfile | None = None,
     restitution: float = 0.7,
-    friction: AbstractFrictionLaw | None = None,
+    friction: AbstractFrictionLaw | str | None = "default",
     joint_friction: AbstractFrictionLaw | str | None = "default",
     lubrication: AbstractFilmLaw | None = None,
     impact_speed: float = 1.0,

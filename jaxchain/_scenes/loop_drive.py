@@ -140,7 +140,7 @@ def loop_drive(
     form: str,
     profiles,
     restitution: float,
-    friction: AbstractFrictionLaw | None,
+    friction: AbstractFrictionLaw | str | None,
     joint_friction: AbstractFrictionLaw | str | None,
     lubrication: AbstractFilmLaw | None = None,
     driven_inertia,

@@ -82,7 +82,7 @@ class _ChainModel:
     form: Literal["min", "max", "mid"] = "mid"
     elongation: float = 0.0
     restitution: float = 0.7
-    friction: AbstractFrictionLaw | None = None
+    friction: AbstractFrictionLaw | str | None = "default"
     joint_friction: AbstractFrictionLaw | str | None = "default"
     lubrication: AbstractFilmLaw | None = None
     impact_speed: float = 1.0
