@@ -24,14 +24,6 @@ from ._dynamics import (
     vector_field as vector_field,
 )
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
-from ._observers.engagements import (
-    Engagements as Engagements,
-    PeakComparison as PeakComparison,
-    PeakStatistics as PeakStatistics,
-    compare_peaks as compare_peaks,
-    engagement_peaks as engagement_peaks,
-    peak_statistics as peak_statistics,
-)
 from ._plots.drive import (
     animate as animate,
     plot_forces as plot_forces,
@@ -74,5 +66,13 @@ from ._solve.result import (
     result_names as result_names,
 )
 from ._solve.simulate import Solution as Solution, simulate as simulate
+from ._statistics import (
+    Engagements as Engagements,
+    PeakComparison as PeakComparison,
+    PeakStatistics as PeakStatistics,
+    compare_peaks as compare_peaks,
+    engagement_peaks as engagement_peaks,
+    peak_statistics as peak_statistics,
+)
 
 __version__ = "0.1.0"

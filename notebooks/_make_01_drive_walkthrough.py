@@ -136,6 +136,59 @@ print(bad.message)"""
         """path = jc.animate(scene, sol, "engagement.gif", stride=50 if FAST else 2, fps=20)
 print(path, path.stat().st_size // 1024, "kB")"""
     ),
+    new_markdown_cell(
+        """## 6. Bush chains
+A bush chain (ISO 606 04C and 06C, ANSI 25 and 35) has no roller: the bush, pressed into
+the inner link's plates, engages the tooth, so it slides on the tooth as the link
+articulates, where a roller would roll. Every builder takes it by name; its teeth carry
+Dahl friction by default (`jc.scenes.BUSH_TOOTH_FRICTION`, μ = 0.1), and a roller
+chain's none."""
+    ),
+    new_code_cell(
+        """bush = jc.ChainSpec.iso606("06C")
+roller = jc.ChainSpec.iso606("06B")
+for c in (roller, bush):
+    print(
+        f"{c.name}: pitch {c.pitch * 1e3:.3f} mm, engaging diameter d1 "
+        f"{c.roller_diameter * 1e3:.2f} mm, has a roller: {c.has_roller}, "
+        f"{c.mass_per_length:.3f} kg/m"
+    )
+print(jc.scenes.BUSH_TOOTH_FRICTION)"""
+    ),
+    new_markdown_cell(
+        """The study `python -m benchmarks.bush_chain` runs both chains of the same pitch on the
+same 18/36 drive (10 N·m, 200 N pretension) and meshes both with an 18-tooth sprocket in
+the clearance-joint chain (1000 N, 1000 rpm). Its committed results:"""
+    ),
+    new_code_cell(
+        """import json
+
+ROOT = Path(jc.__file__).resolve().parents[1]  # the repository: the studies' results
+study = json.loads((ROOT / "benchmarks" / "results" / "bush_chain.json").read_text())
+print("chain  rpm  efficiency  teeth   joints  speed line  tension line")
+for r in study["drive"]:
+    print(
+        f"{r['chain']}  {r['rpm']:4.0f}  {100 * r['efficiency']:8.2f} %  "
+        f"{100 * r['teeth_loss']:5.2f} %  {100 * r['joint_loss']:5.2f} %  "
+        f"{r['speed_mesh_line_pct']:8.3f} %  {r['tension_mesh_line_N']:9.1f} N"
+    )
+for p in study["peaks"]:
+    lo, hi = p["ci95_N"]
+    print(
+        f"{p['chain']} meshing peaks: mean {p['mean_N']:.0f} N [{lo:.0f}, {hi:.0f}], "
+        f"p95 {p['p95_N']:.0f} N over {len(p['peaks_N'])} engagements"
+    )
+d = study["bush_minus_roller"]
+print(
+    f"bush - roller: {d['difference']:+.0f} N ({100 * d['relative']:+.1f} %), "
+    f"95 % interval [{d['ci_low']:+.0f}, {d['ci_high']:+.0f}] N"
+)"""
+    ),
+    new_code_cell(
+        """from IPython.display import Image
+
+Image(str(ROOT / "benchmarks" / "results" / "bush_chain.png"))"""
+    ),
 ]
 
 

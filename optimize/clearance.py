@@ -151,13 +151,23 @@ def remeasure(
         members.append(member)
     return {
         "fidelity": "clearance",
-        "model": "rigid links on pin/bush clearance joints, rollers on bush/roller joints, "
-        "Dahl joint friction (jc.scenes.CLEARANCE_JOINT_FRICTION), Johnson roller/tooth law",
+        "model": model_text(problem.chain)
+        + ", Dahl joint friction (jc.scenes.CLEARANCE_JOINT_FRICTION), Johnson law at the teeth",
         "engagements_per_point": engagements,
         "discarded_periods": DISCARD,
         "baseline": baseline,
         "members": members,
     }
+
+
+def model_text(chain) -> str:
+    """What the clearance-joint chain of ``chain`` is made of, in words."""
+    if chain.has_roller:
+        return "rigid links on pin/bush clearance joints, rollers on bush/roller joints"
+    return (
+        "rigid links on pin/bush clearance joints, the bushes engaging the teeth (a bush "
+        "chain; Dahl friction at the teeth, jc.scenes.BUSH_TOOTH_FRICTION)"
+    )
 
 
 def points_for(problem: Problem, which: str, lumped_peaks: list[float]):

@@ -320,8 +320,8 @@ def run(qs: QuietSettings, out: Path, *, resume: bool = False, quiet: bool = Fal
         "versions": versions(),
         "design_model": "lumped chain (the runs in tooth/ and tooth_ring/)",
         "clearance": {
-            "model": "rigid links on pin/bush clearance joints, rollers on bush/roller joints, "
-            "Dahl joint friction; oil: jc.contact.OilFilm in every joint",
+            "model": clearance.model_text(jc.ChainSpec.iso606(Settings().chain))
+            + ", Dahl joint friction; oil: jc.contact.OilFilm in every joint",
             "rpm": [1000.0 * f for f in sorted(qs.speeds)],
             "engagements_requested": qs.engagements,
             "discarded_periods": clearance.DISCARD,

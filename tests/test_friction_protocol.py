@@ -1,7 +1,8 @@
 """The friction-law protocol: a law defined in this file alone, behind
 ``jc.contact.AbstractFrictionLaw``, drives the joints of both chain fidelities exactly as
 the built-in law it re-implements (its states kept and integrated by the joints), and a
-law with two states per contact is routed through the drive state too."""
+law with two states per contact is routed through the drive state too; so is a user's law
+with states at the roller/tooth contacts."""
 
 from typing import ClassVar
 
@@ -115,9 +116,17 @@ def test_two_states_per_contact():
     assert initial_state(two).bristle.shape == (2 * y.bristle.shape[0],)
 
 
-def test_stateful_law_refused_at_rollers():
-    """Roller/tooth contacts keep no states: a stateful law there is refused by name."""
-    with pytest.raises(ValueError, match="keeps no friction states|keep no friction states"):
-        jc.scenes.engagement("08B", 18, friction=MINE)
+def test_stateful_law_at_the_teeth():
+    """A user's law with states acts at the roller/tooth contacts too (one state per
+    sprocket and roller): at a state with sliding rollers and loaded states it gives the
+    built-in law's roller forces and state rates, and its friction takes power."""
+    base = jc.scenes.engagement("08B", 18, n_entry=3, friction=DAHL)
+    y = _sliding(base)
+    mine = eqx.tree_at(lambda s: s.friction, base, MINE)
+    ref, got = _forces(base, y), _forces(mine, y)
+    assert y.bristle.shape == (base.n_rollers,)  # the joints' Coulomb law keeps none
+    np.testing.assert_allclose(np.asarray(got[0]), np.asarray(ref[0]), rtol=1e-10, atol=1e-8)
+    np.testing.assert_allclose(np.asarray(got[1]), np.asarray(ref[1]), rtol=1e-10, atol=1e-14)
+    assert float(jax.jit(forces)(0.0, y, mine).tooth_friction_power) < -1e-3
     with pytest.raises(TypeError, match="AbstractFrictionLaw"):
         jc.scenes.engagement("08B", 18, joint_friction=0.1)

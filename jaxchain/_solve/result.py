@@ -9,6 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool
 
+from .._observers.base import FLYING_APART
+
 __all__ = [
     "Result",
     "SolveError",
@@ -19,10 +21,6 @@ __all__ = [
     "raise_if_failed",
     "FLYING_APART",
 ]
-
-# a roller faster than this many times (pitch-line speed + reference impact speed) has
-# flown apart (the solve diverged)
-FLYING_APART = 5.0
 
 
 class SolveError(RuntimeError):
