@@ -128,6 +128,8 @@ def chart(res: dict, path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 3, figsize=(13, 4), dpi=120)
+    every = np.concatenate([p["peaks_N"] for p in res["peaks"]])
+    bins = np.linspace(every.min(), every.max(), 16)  # one set of bins for both chains
     for name, chain in CHAINS.items():
         rows = [r for r in res["drive"] if r["chain"] == chain]
         rpm = [r["rpm"] for r in rows]
@@ -135,7 +137,7 @@ def chart(res: dict, path) -> None:
         ax[0].plot(rpm, [100 * r["joint_loss"] for r in rows], "s--", label=f"{name}: joints")
         ax[1].plot(rpm, [r["tension_mesh_line_N"] for r in rows], "o-", label=name)
         peaks = next(p for p in res["peaks"] if p["chain"] == chain)["peaks_N"]
-        ax[2].hist(peaks, bins=12, alpha=0.6, label=name)
+        ax[2].hist(peaks, bins=bins, alpha=0.6, label=name)
     ax[0].set(xlabel="driver speed [rpm]", ylabel="power lost [% of driver work]")
     ax[0].set_title("friction losses, lumped drive 18/36", fontsize=10)
     ax[1].set(xlabel="driver speed [rpm]", ylabel="tight-span tension at mesh order [N]")
