@@ -658,3 +658,11 @@ def test_plots_draw_free_form_and_patterns(tmp_path):
     assert len(ax2.lines) == 2 + Z  # reference, exaggerated profile, a roller per gap
     ax2.figure.savefig(tmp_path / "sprocket.png")
     assert (tmp_path / "sprocket.png").stat().st_size > 10_000
+    assert not ax2.get_title().endswith("×1")  # the pattern is magnified
+    # a uniform sprocket has no pattern: its sampling noise is not magnified into one
+    assert jc.plot_sprocket(p.uniform()).get_title().endswith("×1")
+    # legends beside the axes, clear of their x labels
+    for a in (ax, ax2):
+        box = a.get_legend().get_window_extent(a.figure.canvas.get_renderer())
+        label = a.xaxis.label.get_window_extent(a.figure.canvas.get_renderer())
+        assert not box.overlaps(label)

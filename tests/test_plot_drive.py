@@ -64,6 +64,7 @@ def closed_drive():
         roller_velocity=np.zeros((2, n_r, 2)),
         roller_sprocket_force=force,
         link_tension=np.full((2, n_l), 200.0),
+        span_tension=np.array([[300.0, 100.0], [320.0, 90.0]]),  # tight, slack
         sprocket_speed=np.tile(omega, (2, 1)),
         sprocket_angle=theta0 + ts[:, None] * omega,
         sprocket_torque=np.zeros((2, 2)),
@@ -141,6 +142,20 @@ def test_plot_tensions(engaged, tmp_path):
     _savefig(ax, tmp_path / "tensions.png")
     ax = plot_tensions(sol, links=3)
     assert [ln.get_label() for ln in _data_lines(ax)] == ["link 3"]
+    with pytest.raises(ValueError, match="closed drive"):  # a strand has no spans
+        plot_tensions(sol, spans=True)
+
+
+def test_plot_tensions_of_a_drive_are_its_spans(closed_drive):
+    """A closed drive's default: each free span's mean tension, named by its sprockets."""
+    _, dsol = closed_drive
+    ax = plot_tensions(dsol)
+    lines = _data_lines(ax)
+    assert [ln.get_label() for ln in lines] == ["span 0: sprocket 0 → 1", "span 1: sprocket 1 → 0"]
+    np.testing.assert_allclose(lines[1].get_ydata(), np.asarray(dsol.span_tension)[:, 1])
+    assert "span tension" in ax.get_ylabel()
+    links = plot_tensions(dsol, spans=False)
+    assert all(ln.get_label().startswith("link ") for ln in _data_lines(links))
 
 
 def test_plot_speed(engaged, closed_drive, tmp_path):

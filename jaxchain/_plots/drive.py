@@ -158,8 +158,9 @@ def plot_tensions(
     links: int | Sequence[int] | None = None,
     ax=None,
     top: int = 5,
+    spans: bool | None = None,
 ):
-    """Link tension histories [N] against time [ms].
+    """Tension histories [N] against time [ms]: a closed drive's free spans, or links.
 
     Args:
         sol: a :class:`~jaxchain.Solution`.
@@ -167,19 +168,48 @@ def plot_tensions(
             tension, in link order.
         ax: Axes to draw into (default: a new figure).
         top: how many links to draw by default.
+        spans: draw each free span's mean tension (``sol.span_tension``: span j runs from
+            sprocket j to j + 1) instead of links; default: spans for a closed drive when
+            no ``links`` are given, links otherwise.
 
-    Each link's peak over the save times is marked and annotated. Returns the Axes.
+    Each line's peak over the save times is marked and annotated. A lumped chain's links
+    are two-way springs: a link between two seated rollers can be squeezed, and its
+    negative tension (compression) is then labelled so. Returns the Axes.
     """
     _solution(sol, "plot_tensions")
     ax = _new_ax(ax)
-    tension = np.asarray(sol.link_tension, dtype=float)
-    idx = _select(tension, links, top, "link")
-    peaks = _plot_histories(ax, sol.ts, tension, idx, "link")
-    if tension.size and np.min(tension[:, idx] if idx else tension) < 0:
+    if spans is None:
+        spans = links is None and sol.span_tension is not None
+    if spans:
+        if sol.span_tension is None:
+            raise ValueError(
+                "plot_tensions: spans=True needs a closed drive's span tensions "
+                "(sol.span_tension is None for a strand); draw links instead"
+            )
+        tension = np.asarray(sol.span_tension, dtype=float)
+        n = tension.shape[1]
+        idx = list(range(n))
+        kind, title = "span", "Span tensions (mean over each free span's links)"
+    else:
+        tension = np.asarray(sol.link_tension, dtype=float)
+        idx = _select(tension, links, top, "link")
+        kind, title = "link", "Link tensions"
+    peaks = _plot_histories(ax, sol.ts, tension, idx, kind)
+    if spans:  # say where each span runs
+        for line in ax.get_lines():
+            j = line.get_label().removeprefix("span ")
+            if j.isdigit():
+                line.set_label(f"span {j}: sprocket {j} → {(int(j) + 1) % n}")
+    low = np.min(tension[:, idx]) if (tension.size and idx) else 0.0
+    if low < 0:
         ax.axhline(0.0, lw=0.6, color="0.5", label="_nolegend_")
+        ax.text(
+            0.01, 0.02, "below 0: compression (the lumped links are two-way springs)",
+            transform=ax.transAxes, fontsize=7, color="0.35",
+        )  # fmt: skip
     _annotate_peaks(ax, peaks)
-    ax.set_ylabel("link tension [N]")
-    ax.set_title("Link tensions")
+    ax.set_ylabel(f"{kind} tension [N]")
+    ax.set_title(title)
     if idx:
         ax.legend(fontsize=8, loc="best")
     return ax

@@ -89,7 +89,8 @@ def plot_profiles(
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.set_title(f"{chain.name}, z = {teeth}: ISO 606 tooth-gap forms")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=3, fontsize=8)
+    # beside the axes: below them it would cover the x label whatever the aspect
+    ax.legend(loc="center left", bbox_to_anchor=(1.02, 0.5), fontsize=8)
     return ax
 
 
@@ -105,8 +106,8 @@ def plot_sprocket(
     from ``reference`` (default: the same profile with every per-gap leaf replaced by its
     mean over the gaps, so that only the pattern shows), measured along the reference's
     normal, drawn ``exaggerate`` times larger (default: the largest departure shown as
-    0.1 pitch) over the reference outline (grey), with a roller seated in every gap.
-    Millimetres. Returns the Axes."""
+    0.1 pitch; none below 1e-5 pitch) over the reference outline (grey), with a roller
+    seated in every gap. Millimetres. Returns the Axes."""
     import matplotlib.pyplot as plt
 
     if ax is None:
@@ -121,7 +122,10 @@ def plot_sprocket(
     sd, normal = np.asarray(sd), np.asarray(normal)
     if exaggerate is None:
         biggest = float(np.abs(sd).max())
-        exaggerate = max(1.0, 0.1 * float(profile.pitch) / biggest) if biggest > 0 else 1.0
+        # below 1e-5 pitch (0.13 µm on 08B) a departure is the outline's sampling, not a
+        # pattern: magnifying it would draw noise
+        real = biggest > 1e-5 * float(profile.pitch)
+        exaggerate = max(1.0, 0.1 * float(profile.pitch) / biggest) if real else 1.0
     shown = out + (exaggerate - 1) * sd[:, None] * normal
     ax.plot(ref[:, 0] * 1e3, ref[:, 1] * 1e3, color="0.6", lw=0.8, label="reference")
     ax.plot(shown[:, 0] * 1e3, shown[:, 1] * 1e3, lw=1.2,
@@ -137,5 +141,5 @@ def plot_sprocket(
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.set_title(f"z = {z}: departure from the reference ×{exaggerate:.3g}")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize=8)
+    ax.legend(loc="center left", bbox_to_anchor=(1.02, 0.5), fontsize=8)  # beside the axes
     return ax
