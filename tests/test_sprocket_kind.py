@@ -1,6 +1,6 @@
 """A sprocket kind defined in this file alone (``jc.AbstractProfile`` + ``jc.AbstractShape``):
 a wheel whose gaps are round holes (a pin-gear-like outline). The contact, the builders,
-the statics and the solve read it with no change anywhere else; beside a sprocket of
+the statics, the solve and save/load read it with no change anywhere else; beside a sprocket of
 another kind it is read on its own."""
 
 import math
@@ -130,6 +130,39 @@ def test_simulate_with_the_new_kind_alone_and_beside_another():
     assert sol.ok, sol.message
     assert float(sol.peak_contact_force) > 10.0
     assert float(jnp.max(sol.roller_sprocket_force)) > 10.0
+
+
+def test_the_new_kind_saves_and_loads(tmp_path):
+    """A kind defined in this file alone saves as JSON and loads back leaf for leaf, as
+    itself: defining its class is all it takes."""
+    p = round_gaps()
+    back = jc.load_profile(p.save(tmp_path / "round.json"))
+    assert type(back) is RoundGapProfile and back.teeth == p.teeth
+    for a, b in zip(jax.tree_util.tree_leaves(p), jax.tree_util.tree_leaves(back), strict=True):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_a_kind_must_say_how_far_its_teeth_reach():
+    """``tip_diameter`` (what the contact slots and the meshing events read) is checked at
+    construction."""
+
+    class NoTip(jc.AbstractProfile):
+        teeth: int = eqx.field(static=True)
+        pitch: jax.Array
+        roller_diameter: jax.Array
+        seating_radius: jax.Array
+
+        def contact_shape(self):
+            raise NotImplementedError
+
+        def outline(self, n=60, gap=0):
+            raise NotImplementedError
+
+        def sprocket_outline(self, n=30):
+            raise NotImplementedError
+
+    with pytest.raises(TypeError, match="needs a tip_diameter"):
+        NoTip(18, jnp.asarray(0.0127), jnp.asarray(0.0085), jnp.asarray(0.0043))
 
 
 def test_what_the_new_kind_does_not_give_is_said():

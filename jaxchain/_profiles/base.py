@@ -103,12 +103,21 @@ class AbstractProfile(eqx.Module):
     contact shape (``contact_shape()``, an :class:`AbstractShape`). Its ``teeth`` is a
     static field (``eqx.field(static=True)``): counts set the traced program's shapes."""
 
-    # (each kind also has a ``tip_diameter`` [m]; declared in the kinds, after their own
-    # seat fields, so that their fields keep their order)
+    # (each kind also has a ``tip_diameter`` [m], the diameter its teeth reach: declared in
+    # the kinds, after their own seat fields, so that their fields keep their order, and
+    # checked at construction)
     teeth: eqx.AbstractVar[int]
     pitch: eqx.AbstractVar[Array]
     roller_diameter: eqx.AbstractVar[Array]
     seating_radius: eqx.AbstractVar[Array]
+
+    def __check_init__(self):
+        if not hasattr(self, "tip_diameter"):
+            raise TypeError(
+                f"{type(self).__name__}: a profile kind needs a tip_diameter field [m], the "
+                "diameter its teeth reach (what reach_radius, the contact slots and the "
+                "meshing events read)"
+            )
 
     @abc.abstractmethod
     def outline(self, n: int = 60, gap: int = 0) -> np.ndarray:

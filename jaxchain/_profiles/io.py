@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from pathlib import Path
 
 import equinox as eqx
@@ -10,23 +11,52 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _checks as checks
-from .freeform import FreeformProfile
+from .base import AbstractProfile
+from .freeform import FreeformProfile  # noqa: F401  (the built-in kinds: defined here)
 from .freeform_shape import Flank
-from .iso import ToothProfile
+from .iso import ToothProfile  # noqa: F401
 from .record import FORMAT, HEADER, VERSION
 
-__all__ = ["load_profile", "profile_from_dict", "KINDS", "PARTS"]
+__all__ = ["load_profile", "profile_from_dict", "profile_kinds"]
 
-# the top-level profile classes a file may hold, and the modules nested in them
-KINDS: dict[str, type] = {"ToothProfile": ToothProfile, "FreeformProfile": FreeformProfile}
-PARTS: dict[str, type] = {"Flank": Flank}
+
+def _subclasses(base: type) -> list[type]:
+    """Every subclass of ``base`` defined so far, in the order they were defined."""
+    out, todo = [], [base]
+    while todo:
+        for c in todo.pop(0).__subclasses__():
+            out.append(c)
+            todo.append(c)
+    return out
+
+
+def profile_kinds() -> dict[str, type]:
+    """Every concrete profile kind defined in this process, by class name: the kinds a
+    file may hold. A kind of your own is known once its class is defined (its module
+    imported); of two classes of one name, the later definition (a notebook cell run
+    again)."""
+    kinds = {}
+    for c in _subclasses(AbstractProfile):
+        if not inspect.isabstract(c):
+            kinds[c.__name__] = c
+    return kinds
+
+
+def _part(name: str) -> type | None:
+    """The module class a profile nests under ``name`` (a free-form profile's ``Flank``,
+    or a part of a kind of your own): the latest ``eqx.Module`` of that name."""
+    if name == "Flank":
+        return Flank
+    found = [c for c in _subclasses(eqx.Module) if c.__name__ == name]
+    return found[-1] if found else None
 
 
 # --------------------------------------------------------------------------- decode
-def load_profile(path: str | Path) -> ToothProfile | FreeformProfile:
+def load_profile(path: str | Path) -> AbstractProfile:
     """The tooth profile saved at ``path`` by ``profile.save(path)``: a
-    :class:`~jaxchain.ToothProfile` or :class:`~jaxchain.FreeformProfile` equal to the
-    saved one leaf for leaf (bit for bit in float64), validated as at construction.
+    :class:`~jaxchain.ToothProfile`, a :class:`~jaxchain.FreeformProfile` or a kind of your
+    own (defined before the call), equal to the saved one leaf for leaf (bit for bit in
+    float64), validated as at construction.
 
     Raises:
         FileNotFoundError: no file at ``path``.
@@ -37,7 +67,7 @@ def load_profile(path: str | Path) -> ToothProfile | FreeformProfile:
     return checks.read_json_file(path, "profile", profile_from_dict)
 
 
-def profile_from_dict(data: dict) -> ToothProfile | FreeformProfile:
+def profile_from_dict(data: dict) -> AbstractProfile:
     """The profile of a dict made by :func:`profile_to_dict` (or read from its JSON).
 
     Raises:
@@ -46,10 +76,14 @@ def profile_from_dict(data: dict) -> ToothProfile | FreeformProfile:
     """
     checks.file_header(data, format=FORMAT, version=VERSION, what="profile", writer="profile.save")
     kind = data.get("kind")
-    if kind not in KINDS:
-        raise ValueError(f"unknown profile kind {kind!r}; known kinds: {', '.join(KINDS)}")
+    kinds = profile_kinds()
+    if kind not in kinds:
+        raise ValueError(
+            f"unknown profile kind {kind!r}; known kinds: {', '.join(kinds)} (a kind of your "
+            "own is known once its class is defined: import its module first)"
+        )
     fields = {k: v for k, v in data.items() if k not in HEADER}
-    return _build(KINDS[kind], fields, kind)
+    return _build(kinds[kind], fields, kind)
 
 
 def _build(cls: type, data: dict, where: str):
@@ -71,10 +105,13 @@ def _build(cls: type, data: dict, where: str):
         raw, name = data[f.name], f"{where}.{f.name}"
         if isinstance(raw, dict):
             part = raw.get("kind")
-            if part not in PARTS:
-                raise ValueError(f"{name}: unknown part kind {part!r}; known: {', '.join(PARTS)}")
+            cls_part = _part(part) if isinstance(part, str) else None
+            if cls_part is None:
+                raise ValueError(
+                    f"{name}: unknown part kind {part!r} (no module class of that name is defined)"
+                )
             fields = {k: v for k, v in raw.items() if k != "kind"}
-            kwargs[f.name] = _build(PARTS[part], fields, name)
+            kwargs[f.name] = _build(cls_part, fields, name)
         elif f.metadata.get("static", False):
             if isinstance(raw, (bool, list)) or not isinstance(raw, (int, float, str)):
                 raise ValueError(f"{name} must be a number, got {raw!r}")

@@ -25,9 +25,10 @@ a hand-edited file is validated as a profile built in code is.
 
 A profile kind is saved as the fields of its equinox module: array leaves as nested
 lists, static fields (``teeth``, ``min_tip_width``) as numbers, nested modules
-(:class:`~jaxchain.Flank`) as objects tagged with their own ``"kind"``. A new kind is
-read back once it has an entry in ``jaxchain._profiles.io.KINDS`` (its constructor must
-take each field as a keyword).
+(:class:`~jaxchain.Flank`) as objects tagged with their own ``"kind"``. A kind of your
+own (a subclass of :class:`~jaxchain.AbstractProfile`) is read back once its class is
+defined (``jaxchain._profiles.io.profile_kinds``); its constructor must take each field
+as a keyword.
 """
 
 from __future__ import annotations
