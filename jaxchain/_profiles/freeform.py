@@ -121,14 +121,15 @@ class FreeformProfile(AbstractProfile):
 
     # ------------------------------------------------------------------ factories
     @classmethod
-    # (the ISO kind is named, not imported: iso imports this module to convert itself)
     def from_iso(cls, profile: ToothProfile, arcs: int = 1, **changes) -> FreeformProfile:  # noqa: F821
         """The free-form profile with the same outline as the ISO-type ``profile``: both
         flanks one arc of curvature 1/re, split into ``arcs`` arcs of that curvature (break
         points evenly spaced in the radial rise), seat angle α/2 on each side. Keyword
         ``changes`` replace fields (e.g. ``seating_radius=array`` for a per-tooth
         pattern)."""
-        if not (isinstance(profile, AbstractProfile) and hasattr(profile, "flank_radius")):
+        from .iso import ToothProfile  # here: iso imports this module to convert itself
+
+        if not isinstance(profile, ToothProfile):
             raise TypeError(
                 f"from_iso: profile must be a jc.ToothProfile, got {type(profile).__name__}"
             )
