@@ -12,7 +12,20 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["real", "integer", "choice", "flag", "instance", "pair", "fields"]
+__all__ = [
+    "real",
+    "integer",
+    "choice",
+    "flag",
+    "instance",
+    "pair",
+    "fields",
+    "real_leaf",
+    "real_values",
+    "harmonics",
+    "solve_keywords",
+    "element_coordinates",
+]
 
 
 def _range(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
@@ -113,6 +126,160 @@ def pair(name: str, value, n: int = 2, what: str = "values") -> tuple:
     if len(value) != n:
         raise ValueError(f"{name} must hold {n} {what}, got {len(value)}: {value!r}")
     return tuple(value)
+
+
+def _kind(value) -> str | None:
+    """What is wrong with the kind of ``value`` for a real number or an array of them (a
+    JAX tracer included): None if it is real, else its kind in words."""
+    if value is None or isinstance(value, (str, bytes, bool, np.bool_, complex)):
+        return type(value).__name__
+    if isinstance(value, numbers.Real):
+        return None
+    if hasattr(value, "dtype"):
+        dtype = np.dtype(value.dtype)
+    else:
+        try:
+            dtype = np.asarray(value).dtype
+        except (TypeError, ValueError):  # ragged nesting
+            return type(value).__name__
+    if not (np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.floating)):
+        return f"{dtype} array" if dtype.kind != "O" else type(value).__name__
+    return None
+
+
+def real_leaf(name: str, value, unit: str = ""):
+    """``value`` unchanged if it is one real number (a Python or NumPy number, an array of
+    shape (), a traced scalar), else ``TypeError`` (a string, a bool, None, a complex
+    number) or ``ValueError`` (an array of another shape) naming ``name``. The value is not
+    read: a traced one passes, and finiteness is its owner's check where concrete."""
+    unit = f" [{unit}]" if unit else ""
+    kind = _kind(value)
+    if kind is not None:
+        raise TypeError(f"{name} must be a real number{unit}, got {kind} {value!r}")
+    if np.shape(value) != ():
+        raise ValueError(f"{name} must be a scalar{unit}, got shape {np.shape(value)}")
+    return value
+
+
+def real_values(name: str, value, what: str = "real numbers"):
+    """``value`` unchanged if it is a real number or an array of them (any shape; traced
+    ones pass), else ``TypeError`` naming ``name``: a string, a bool, None, complex
+    numbers, or lists that do not make an array."""
+    kind = _kind(value)
+    if kind is not None:
+        raise TypeError(f"{name} must be {what}, got {kind} {value!r}")
+    return value
+
+
+def harmonics(owner: str, rows, what: str = "") -> list[tuple]:
+    """A sequence of ``(order, amplitude, phase)`` rows checked: each a row of 3 real
+    scalars (traced ones pass); else ``TypeError``/``ValueError`` naming ``owner``'s
+    ``harmonics[k]`` and its part. ``what``: added to the message of a part that is not a
+    scalar (why there is one value per row)."""
+    example = "e.g. harmonics=((2, 5.0, 0.0),) for one harmonic"
+    if isinstance(rows, (str, bytes)) or not isinstance(rows, Sequence | np.ndarray):
+        raise TypeError(
+            f"{owner}: harmonics must be a sequence of (order, amplitude, phase) rows ({example}), "
+            f"got {type(rows).__name__} {rows!r}"
+        )
+    out = []
+    for k, h in enumerate(rows):
+        if isinstance(h, (str, bytes)) or not isinstance(h, Sequence | np.ndarray):
+            raise TypeError(
+                f"{owner}: harmonics[{k}] must be (order, amplitude, phase), got "
+                f"{type(h).__name__} {h!r} ({example}: a row per harmonic, in a sequence)"
+            )
+        h = tuple(h)
+        if len(h) != 3:
+            raise ValueError(
+                f"{owner}: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
+            )
+        for part, v in zip(("order", "amplitude", "phase"), h, strict=True):
+            kind = _kind(v)
+            if kind is not None:
+                raise TypeError(
+                    f"{owner}: harmonics[{k}]'s {part} must be a real number, got {kind} {v!r}"
+                )
+            if np.shape(v) != ():
+                raise ValueError(
+                    f"{owner}: harmonics[{k}]'s {part} must be a scalar, got shape "
+                    f"{np.shape(v)}{what}"
+                )
+        out.append(h)
+    return out
+
+
+#: the keyword options of a solve whose kind is checked before ``SolveOptions`` reads them
+_SOLVE_REALS = ("rtol", "atol", "dt")
+
+
+def solve_keywords(caller: str, options: dict) -> dict:
+    """A solve's keyword options (``rtol=``, ``n_steps=``, ...) checked for their kind
+    before they are read: tolerances and ``dt`` real scalars, ``max_steps`` and
+    ``n_steps`` integers, ``dt0`` real, ``progress`` and ``allow_float32`` True or False
+    (a string such as "1e-6" would be read as a number, "no" as True); returns
+    ``options``."""
+    for name, value in options.items():
+        label = f"{caller}: {name}"
+        if name in _SOLVE_REALS and value is not None:
+            real_leaf(label, value)
+        elif name == "dt0" and value is not None:
+            real_values(label, value, "a real number [s] (or one per member)")
+        elif name in ("max_steps", "n_steps") and value is not None:
+            integer(label, value, lo=1)
+        elif name in ("progress", "allow_float32"):
+            flag(label, value)
+    return options
+
+
+def element_coordinates(scene, caller: str) -> None:
+    """Every force element of ``scene`` with coordinates of its own checked: ``n_dofs`` an
+    integer >= 0, ``dof_inertia`` (D,) finite and > 0, ``dof_start`` two (D,) arrays,
+    finite (values where concrete); else ``TypeError``/``ValueError`` naming the element
+    and the method to fix."""
+    import jax
+
+    concrete = lambda x: (
+        not any(  # noqa: E731
+            isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(x)
+        )
+    )
+    for el in scene.force_elements:
+        owner = f"{caller}: {type(el).__name__}"
+        d = el.n_dofs(scene)
+        if isinstance(d, (bool, np.bool_)) or not isinstance(d, (int, np.integer)):
+            raise TypeError(
+                f"{owner}.n_dofs(scene) must return an integer >= 0 (its own coordinates), "
+                f"got {type(d).__name__} {d!r}"
+            )
+        if d < 0:
+            raise ValueError(f"{owner}.n_dofs(scene) must return an integer >= 0, got {d}")
+        if not d:
+            continue
+        try:
+            inertia = el.dof_inertia(scene)
+        except NotImplementedError as e:
+            raise TypeError(f"{caller}: {e}") from None
+        parts = {"dof_inertia(scene)": (inertia, "finite and > 0 (kg or kg·m²)", lambda v: v > 0)}
+        start = el.dof_start(scene)
+        if not isinstance(start, tuple | list) or len(start) != 2:
+            raise TypeError(
+                f"{owner}.dof_start(scene) must return (position, rate), two arrays of shape "
+                f"({d},), got {type(start).__name__}"
+            )
+        parts["dof_start(scene)'s position"] = (start[0], "finite", lambda v: v == v)
+        parts["dof_start(scene)'s rate"] = (start[1], "finite", lambda v: v == v)
+        for what, (value, rng, ok) in parts.items():
+            real_values(f"{owner}.{what}", value, f"an array of shape ({d},)")
+            if np.size(value) != d:
+                raise ValueError(
+                    f"{owner}.{what} must have shape ({d},) (n_dofs(scene) = {d}), got shape "
+                    f"{np.shape(value)}"
+                )
+            if concrete(value):
+                v = np.asarray(value, dtype=float)
+                if not np.all(np.isfinite(v) & ok(v)):
+                    raise ValueError(f"{owner}.{what} must be {rng}, got {v.tolist()}")
 
 
 def _real_array(owner: str, name: str, value) -> np.ndarray:

@@ -57,7 +57,7 @@ class Constant(AbstractLoad):
     value: Float[Array, ""]
 
     def __init__(self, value: ArrayLike):
-        self.value = jnp.asarray(value, dtype=float)
+        self.value = jnp.asarray(checks.real_leaf("Constant: value", value, "N·m"), dtype=float)
 
     def __check_init__(self):
         _finite(self, "Constant", "value")
@@ -82,8 +82,8 @@ class Ramped(AbstractLoad):
     duration: Float[Array, ""]
 
     def __init__(self, value: ArrayLike, duration: ArrayLike):
-        self.value = jnp.asarray(value, dtype=float)
-        self.duration = jnp.asarray(duration, dtype=float)
+        self.value = jnp.asarray(checks.real_leaf("Ramped: value", value, "N·m"), dtype=float)
+        self.duration = jnp.asarray(checks.real_leaf("Ramped: duration", duration, "s"), float)
 
     def __check_init__(self):
         _finite(self, "Ramped", "value", "duration")
@@ -121,20 +121,13 @@ class Harmonic(AbstractLoad):
     phases: Float[Array, " H"]
 
     def __init__(self, mean: ArrayLike, harmonics: Sequence[Sequence[float]] = ()):
-        rows = [tuple(h) for h in harmonics]
-        for k, h in enumerate(rows):
-            if len(h) != 3:
-                raise ValueError(
-                    f"Harmonic: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
-                )
-            for part, v in zip(("order", "amplitude", "phase"), h, strict=True):
-                if np.shape(v) != ():
-                    raise ValueError(
-                        f"Harmonic: harmonics[{k}]'s {part} must be a scalar, got shape "
-                        f"{np.shape(v)} (one (order, amplitude, phase) row per harmonic; "
-                        "a load per ensemble member is one Harmonic per scene)"
-                    )
-        self.mean = jnp.asarray(mean, dtype=float)
+        rows = checks.harmonics(
+            "Harmonic",
+            harmonics,
+            " (one (order, amplitude, phase) row per harmonic; a load per ensemble member is "
+            "one Harmonic per scene)",
+        )
+        self.mean = jnp.asarray(checks.real_leaf("Harmonic: mean", mean, "N·m"), dtype=float)
         self.orders = jnp.asarray([h[0] for h in rows], dtype=float).reshape(-1)
         self.amplitudes = jnp.asarray([h[1] for h in rows], dtype=float).reshape(-1)
         self.phases = jnp.asarray([h[2] for h in rows], dtype=float).reshape(-1)
@@ -200,8 +193,8 @@ def camshaft_torque(
         ("engine_rpm", engine_rpm, "rpm (the crank's speed; 0: no valve inertia)"),
     ):  # fmt: skip
         checks.real(f"camshaft_torque: {name}", v, lo=0.0, unit=unit)
-    for name, v, unit in (("friction", friction, "N·m"), ("phase_deg", phase_deg, "(degrees)")):
-        checks.real(f"camshaft_torque: {name}", v, unit=unit)
+    checks.real("camshaft_torque: friction", friction, lo=0.0, unit="N·m (the mean drag)")
+    checks.real("camshaft_torque: phase_deg", phase_deg, unit="(degrees)")
     for name, v in (("cylinders", cylinders), ("valves", valves), ("orders", orders)):
         checks.integer(f"camshaft_torque: {name}", v, lo=1)
     checks.integer(

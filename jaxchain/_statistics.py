@@ -51,6 +51,31 @@ class Engagements:
     peak: np.ndarray
     end: np.ndarray
 
+    def __post_init__(self):
+        n = None
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            name = f"Engagements.{f.name}"
+            checks.real_values(name, value, "a 1-D array, one entry per event")
+            v = np.asarray(value)
+            if v.ndim != 1:
+                raise ValueError(
+                    f"{name} must be a 1-D array, one entry per event, got shape {v.shape} "
+                    "(jc.engagement_peaks reads them off a solve)"
+                )
+            if n is not None and v.shape[0] != n:
+                raise ValueError(
+                    f"Engagements: every field holds one entry per event; {name} has "
+                    f"{v.shape[0]}, Engagements.member {n}"
+                )
+            n = v.shape[0]
+            integral = f.name in ("member", "sprocket", "roller")
+            if integral and not np.issubdtype(v.dtype, np.integer):
+                if not np.all(v == np.round(v)):
+                    raise ValueError(f"{name} must hold integer indices, got {v.tolist()}")
+                v = v.astype(int)
+            object.__setattr__(self, f.name, v)
+
     def __len__(self) -> int:
         return int(self.peak.shape[0])
 
@@ -120,9 +145,14 @@ def _record_of(source, caller: str) -> EngagementRecord:
             f"{caller}: the solution carries {len(found)} EngagementPeaks records: pass the "
             "one to read, e.g. sol.observed[i]"
         )
+    hint = (
+        " (these are its events already: jc.peak_statistics takes them)"
+        if isinstance(source, Engagements)
+        else ""
+    )
     raise TypeError(
-        f"{caller}: expected a jc.Solution carrying an EngagementPeaks observer, or its "
-        f"EngagementRecord, got {type(source).__name__}"
+        f"{caller}: source must be a jc.Solution carrying an EngagementPeaks observer, or its "
+        f"EngagementRecord, got {type(source).__name__}{hint}"
     )
 
 
@@ -215,9 +245,15 @@ class PeakComparison(NamedTuple):
 
 def _peaks(x, name: str) -> np.ndarray:
     v = x.peak if isinstance(x, Engagements) else x
-    if isinstance(v, (str, bytes, dict)):
+    if isinstance(v, dict):
         raise TypeError(f"{name}: peaks must be an array of forces [N], got {type(v).__name__}")
+    checks.real_values(f"{name}: peaks", v, "a 1-D array of forces [N] (or jc.Engagements)")
     v = np.asarray(v, dtype=float)
+    if v.ndim == 0:
+        raise ValueError(
+            f"{name}: peaks must be a 1-D array of per-engagement peaks [N], got one number "
+            f"{float(v)!r}: pass every engagement's peak, e.g. [{float(v)!r}]"
+        )
     if v.ndim > 1:
         raise ValueError(
             f"{name}: peaks must be one 1-D array of per-engagement peaks, got shape "

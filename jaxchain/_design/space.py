@@ -124,13 +124,29 @@ class DesignSpace(eqx.Module):
         "ccw.curvature": (k_lo, k_hi)}``. Checked: the box's corners (all of them up to
         6 coordinates; else its middle, its two extreme corners and 64 seeded random
         corners) are valid profiles."""
+        checks.instance(
+            "template", template, (AbstractProfile, SprocketDesign),
+            "a jc.ToothProfile, jc.FreeformProfile or another jc.AbstractProfile, or a "
+            "jc.design.SprocketDesign",
+        )  # fmt: skip
         if not isinstance(bounds, dict) or not bounds:
             raise TypeError("bounds must be a non-empty dict {leaf path: (lower, upper)}")
         names, shapes, lows, highs = [], [], [], []
         for name, pair in bounds.items():
             leaf = _leaf(template, name)
             lo, hi = checks.pair(f"bounds[{name!r}]", pair, 2, "bounds (lower, upper)")
-            shape = np.broadcast_shapes(np.shape(leaf), np.shape(lo), np.shape(hi))
+            for side, v in (("lower", lo), ("upper", hi)):
+                checks.real_values(f"bounds[{name!r}]'s {side}", v, "a real number or array")
+                if not np.all(np.isfinite(np.asarray(v, dtype=float))):
+                    raise ValueError(f"bounds[{name!r}]'s {side} must be finite, got {v!r}")
+            try:
+                shape = np.broadcast_shapes(np.shape(leaf), np.shape(lo), np.shape(hi))
+            except ValueError:
+                raise ValueError(
+                    f"bounds[{name!r}]: the bounds' shapes {np.shape(lo)} and {np.shape(hi)} do "
+                    f"not broadcast with the leaf's {np.shape(leaf)} (give scalars, or arrays "
+                    "of the leaf's shape)"
+                ) from None
             names.append(name)
             shapes.append(tuple(shape))
             lows.append(np.broadcast_to(np.asarray(lo, dtype=float), shape).ravel())

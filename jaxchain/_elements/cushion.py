@@ -39,6 +39,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from .. import _checks as checks
 from .._chain import as_chain
 from .._checks import fields, file_header, read_json_file, write_text_file
 from .._kinematics import perp, points, rot, scatter
@@ -143,11 +144,7 @@ class CushionRing(eqx.Module):
             ("damping", damping),
             ("width", width),
         ):
-            if isinstance(value, (str, bytes, bool, np.bool_)) or value is None:
-                raise TypeError(
-                    f"CushionRing.{name} must be a real number, got {type(value).__name__} "
-                    f"{value!r}"
-                )
+            checks.real_values(f"CushionRing.{name}", value, "a real number")
             setattr(self, name, jnp.asarray(value, dtype=float))
 
     def __check_init__(self):

@@ -44,6 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .. import _checks as checks
 from .._numerics import is_concrete, stack
 from .base import AbstractProfile, check_teeth
 from .freeform_shape import Flank, FreeShape, HalfGap, gap_table, half_gap, split_between
@@ -168,19 +169,20 @@ class FreeformProfile(AbstractProfile):
 
         Raises ``ValueError`` (concrete harmonics) for orders that are not whole numbers
         ≥ 1, or harmonics so large that no such polygon is found."""
+        checks.instance(
+            "noncircular: base", base, AbstractProfile,
+            "a tooth profile whose form the sprocket keeps (jc.ToothProfile, "
+            "jc.FreeformProfile, any jc.AbstractProfile with a free-form form)",
+        )  # fmt: skip
         base = base.freeform()
-        rows = [tuple(h) for h in harmonics]
+        rows = checks.harmonics("noncircular", harmonics)
         for k, h in enumerate(rows):
-            if len(h) != 3:
-                raise ValueError(
-                    f"noncircular: harmonics[{k}] must be (order, amplitude, phase), got {h!r}"
+            if isinstance(h[0], (bool, np.bool_)) or not is_concrete(h[0]):
+                raise TypeError(
+                    f"noncircular: harmonics[{k}]'s order must be a whole number >= 1 (cycles "
+                    f"per revolution, static), got {h[0]!r}"
                 )
             for part, v in zip(("order", "amplitude", "phase"), h, strict=True):
-                if np.shape(v) != ():
-                    raise ValueError(
-                        f"noncircular: harmonics[{k}]'s {part} must be a scalar, got shape "
-                        f"{np.shape(v)}"
-                    )
                 if is_concrete(v) and not np.isfinite(float(v)):
                     raise ValueError(
                         f"noncircular: harmonics[{k}]'s {part} must be finite, got {v}"

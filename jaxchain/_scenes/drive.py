@@ -247,6 +247,8 @@ def drive(
         )  # fmt: skip
     if tensioner is not None and not isinstance(tensioner, Tensioner):
         raise TypeError(f"tensioner must be a jc.scenes.Tensioner or None, got {tensioner!r}")
+    if isinstance(guides, Guide):  # one guide, as the loop's builder takes it
+        guides = (guides,)
     with_shoes = {
         "tensioner": tensioner,
         "guides": guides,
@@ -434,6 +436,12 @@ def _spans(
             "centre_distance or centres); use fidelity='lumped' for them"
         )
     if centres is None:
+        given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
+        for name, value in given.items():
+            if value:
+                raise ValueError(
+                    f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
+                )
         z = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
         c = 40 * chain.pitch if centre_distance is None else centre_distance
         c = checks.real("centre_distance", c, lo=0.0, lo_open=True, unit="m")

@@ -14,6 +14,7 @@ from typing import Literal
 
 import numpy as np
 
+from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.film_base import AbstractFilmLaw
@@ -21,7 +22,7 @@ from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.base import AbstractElement
 from .._elements.cushion import CushionRing, as_cushions
 from .._loads import AbstractLoad
-from .._profiles.base import AbstractProfile
+from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Scene
 from .common import disc_inertia
@@ -65,6 +66,31 @@ class SprocketSpec:
                 "SprocketSpec.cushion must be a jc.elements.CushionRing or None, got "
                 f"{type(self.cushion).__name__} {self.cushion!r}"
             )
+        checks.integer("SprocketSpec.teeth", self.teeth, lo=7, hi=MAX_TEETH)
+        if self.centre is not None:
+            axis = checks.pair("SprocketSpec.centre", self.centre, 2, "coordinates (x, y) [m]")
+            for k, x in enumerate(axis):
+                checks.real(f"SprocketSpec.centre[{k}]", x, unit="m")
+        if self.profile is not None:
+            checks.instance(
+                "SprocketSpec.profile", self.profile, AbstractProfile,
+                "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any "
+                "jc.AbstractProfile) or None (ISO 606 of DriveSpec.form)",
+            )  # fmt: skip
+            if self.profile.teeth != self.teeth:
+                raise ValueError(
+                    f"SprocketSpec.profile has {self.profile.teeth} teeth but teeth="
+                    f"{self.teeth}: give the profile of this sprocket (or teeth="
+                    f"{self.profile.teeth})"
+                )
+        if self.load is not None and not isinstance(self.load, AbstractLoad):
+            checks.real(
+                "SprocketSpec.load", self.load, lo=0.0,
+                unit="N·m (or a jc.loads load; None for the driver)",
+            )  # fmt: skip
+        if self.inertia is not None:
+            checks.real("SprocketSpec.inertia", self.inertia, lo=0.0, lo_open=True, unit="kg·m²")
+        checks.flag("SprocketSpec.outside", self.outside)
 
     def replace(self, **changes) -> SprocketSpec:
         """A copy with ``changes`` (field=value)."""
@@ -107,7 +133,11 @@ class _ChainModel:
         }
 
     def _with_elements(self, scene: Scene) -> Scene:
-        return scene.add_elements(*self.elements) if len(self.elements) else scene
+        if not len(self.elements):
+            return scene
+        scene = scene.add_elements(*self.elements)
+        checks.element_coordinates(scene, "build")
+        return scene
 
 
 def _default_sprockets() -> tuple[SprocketSpec, ...]:
@@ -175,6 +205,8 @@ class DriveSpec(_ChainModel):
 
     def with_sprocket(self, index: int, **changes) -> DriveSpec:
         """A copy whose sprocket ``index`` has ``changes`` (``SprocketSpec`` fields)."""
+        n = len(self.sprockets)
+        index = checks.integer("with_sprocket: index", index, lo=-n, hi=n - 1)
         sprockets = list(self.sprockets)
         sprockets[index] = sprockets[index].replace(**changes)
         return self.replace(sprockets=tuple(sprockets))
@@ -249,7 +281,13 @@ class DriveSpec(_ChainModel):
         per-sprocket ones (``teeth``, ``centres``, ``outside``, ``load_torque``,
         ``profiles``, ``driven_inertia``, ``cushion``) gathered into
         :class:`SprocketSpec` s."""
-        teeth = tuple(int(z) for z in np.atleast_1d(teeth))
+        if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
+            raise TypeError(
+                f"teeth must be a sequence of tooth counts, driver first, got {teeth!r}"
+            )
+        teeth = tuple(
+            checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth)
+        )
         n = len(teeth)
 
         def each(name, value, count):
@@ -265,7 +303,13 @@ class DriveSpec(_ChainModel):
         axes = tuple(centres) if centres is not None else (None,) * n
         if len(axes) != n:
             raise ValueError(f"centres must hold {n} axes (one per sprocket), got {len(axes)}")
-        out = set(int(k) for k in np.atleast_1d(outside)) if np.size(outside) else set()
+        if isinstance(outside, (int, np.integer)) and not isinstance(outside, bool):
+            outside = (outside,)
+        if isinstance(outside, (str, bytes)) or not isinstance(outside, Sequence | np.ndarray):
+            raise TypeError(
+                f"outside must be a sequence of sprocket indices in [1, {n - 1}], got {outside!r}"
+            )
+        out = {checks.integer(f"outside[{j}]", k, lo=1, hi=n - 1) for j, k in enumerate(outside)}
         rings = as_cushions(cushion, n)
         sprockets = tuple(
             SprocketSpec(

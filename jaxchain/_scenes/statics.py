@@ -276,6 +276,7 @@ def equilibrate(
         relax_steps: most steps of the dynamic relaxation (each one force evaluation).
     """
     checks.instance("scene", scene, Scene, "a jaxchain Scene (built by jc.scenes.*)")
+    checks.element_coordinates(scene, "equilibrate")
     take_up = checks.real("take_up", take_up, lo=0.0, unit="N")
     checks.integer("max_steps", max_steps, lo=1)
     checks.integer("relax_steps", relax_steps, lo=0)

@@ -10,6 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
+from .. import _checks as checks
 from .._numerics import is_concrete
 from .._observers.base import (
     AbstractIntegralObserver,
@@ -194,6 +195,8 @@ def split_saved(saved: dict) -> dict:
 def time_span(t0: ArrayLike, t1: ArrayLike, ts: ArrayLike | None, n_save: int):
     """Checked (t0, t1, save times) as float arrays; default save times ``n_save`` equally
     spaced over [t0, t1]."""
+    for name, v in (("t0", t0), ("t1", t1)):
+        checks.real_values(name, v, "a time [s]")
     t0a, t1a = jnp.asarray(t0, dtype=float), jnp.asarray(t1, dtype=float)
     for name, v in (("t0", t0a), ("t1", t1a)):
         if np.shape(v) != ():
@@ -213,6 +216,7 @@ def time_span(t0: ArrayLike, t1: ArrayLike, ts: ArrayLike | None, n_save: int):
         if isinstance(n_save, bool) or not isinstance(n_save, (int, np.integer)) or n_save < 2:
             raise ValueError(f"n_save must be an integer >= 2, got {n_save!r}")
         return t0a, t1a, jnp.linspace(t0a, t1a, n_save)
+    checks.real_values("ts", ts, "a 1-D array of save times [s]")
     tsa = jnp.asarray(ts, dtype=float)
     if tsa.ndim != 1 or tsa.shape[0] < 1:
         raise ValueError(f"ts must be a 1-D array of save times, got shape {tsa.shape}")
@@ -235,6 +239,9 @@ def peak_of(saved: dict, step_peak: Array) -> Array:
     when batched)."""
     f = saved["roller_sprocket_force"]
     return jnp.maximum(step_peak, jnp.max(f, axis=tuple(range(f.ndim - 2, f.ndim)), initial=0.0))
+
+
+_N_SAVE = 501  # simulate's default number of save times
 
 
 def simulate(
@@ -271,8 +278,15 @@ def simulate(
     Jitted once per scene *structure*: a second call with new array values (speeds,
     profiles, loads, tolerances) does not retrace.
     """
-    opts = with_options(options, solve_options, "simulate")
+    opts = with_options(options, checks.solve_keywords("simulate", solve_options), "simulate")
     scene = strong_scene(scene, "simulate")
+    checks.flag("simulate: throw", throw)
+    if ts is not None and n_save != _N_SAVE:
+        raise ValueError(
+            f"simulate: give ts (the save times) or n_save (that many equally spaced), not "
+            f"both: with ts, n_save={n_save!r} would be ignored"
+        )
+    checks.element_coordinates(scene, "simulate")
     t0a, t1a, tsa = time_span(t0, t1, ts, n_save)
     check_horizon(scene, t1a, "simulate")
     observers = _checked_observers(observers, "simulate")
