@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from . import _checks as checks
 from ._elements.base import Effect, ElementState
 from ._elements.pairs import chain_tension
 from ._elements.rollers import RollerContacts, RollerTeeth, roller_contacts as _roller_contacts
@@ -182,6 +183,7 @@ def initial_state(scene: Scene) -> DriveState:
     """The state the scene starts from (its bodies' q0, v0; the sprockets' angle0 and
     speed): what :func:`vector_field` takes as ``y`` at t0."""
     _check_scene(scene, "initial_state")
+    checks.element_coordinates(scene, "initial_state")
     starts = [el.dof_start(scene) for el in _dof_owners(scene)]
     dof = dof_rate = None
     if starts:

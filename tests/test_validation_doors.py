@@ -900,6 +900,18 @@ BAD = [
         r"n_dofs\(scene\) must return an integer",
     ),
     (
+        "dofs-count-neg-init",
+        lambda: jc.initial_state(SCENE.add_elements(Slide(dofs=-1))),
+        ValueError,
+        r"initial_state: Slide.n_dofs\(scene\) must return an integer >= 0",
+    ),
+    (
+        "dofs-start-shape-init",
+        lambda: jc.initial_state(SCENE.add_elements(Slide(start=[0.0, 0.0]))),
+        ValueError,
+        r"initial_state: Slide.dof_start\(scene\)'s position must have shape \(1,\)",
+    ),
+    (
         "dofs-spec-build",
         lambda: DS(settle=False, elements=(Slide(inertia=0.0),)).build(),
         ValueError,
