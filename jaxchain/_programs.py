@@ -95,7 +95,7 @@ def _environment() -> str:
 
 
 def _settings() -> str:
-    import equinox._errors as eqx_errors
+    from ._deps import on_error_mode
 
     return "|".join(
         str(x)
@@ -103,7 +103,7 @@ def _settings() -> str:
             jax.config.jax_enable_x64,
             jax.default_backend(),
             os.environ.get("XLA_FLAGS", ""),
-            eqx_errors.EQX_ON_ERROR,
+            on_error_mode(),
             jax.config.jax_default_matmul_precision,
             jax.config.jax_numpy_dtype_promotion,
         )

@@ -2,10 +2,10 @@
 it, whatever equinox's on-error mode (a program with one is never written to the cache,
 so every new process would compile the solve again)."""
 
-import equinox._errors as eqx_errors
 import jax
 
 import jaxchain as jc
+from jaxchain._deps import _eqx_errors as eqx_errors  # equinox's, through jaxchain's wrapper
 
 from helpers import tooth_period
 

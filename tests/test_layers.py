@@ -11,7 +11,7 @@ ROOT = Path(__file__).resolve().parents[1] / "jaxchain"
 
 #: bottom to top; a package may import itself and those before it
 ORDER = (
-    "_numerics", "_checks", "_materials", "_kinematics", "_programs", "_chain", "_contact",
+    "_deps", "_numerics", "_checks", "_materials", "_kinematics", "_programs", "_chain", "_contact",
     "_loads", "_profiles", "_elements", "_scene", "_dynamics", "_observers", "_scenes",
     "_solve", "_statistics", "_design", "_plots",
 )  # fmt: skip

@@ -15,12 +15,12 @@ from typing import Any, NamedTuple
 
 import diffrax
 import equinox as eqx
-import equinox._errors as _eqx_errors  # the on-error mode read at trace time
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
+from .._deps import errors_as_nan
 from .._dynamics import DriveState, forces, initial_state, outputs, rates
 from .._elements.rollers import prepare
 from .._numerics import is_concrete
@@ -226,12 +226,8 @@ def _input_checks_without_callbacks():
     checks the same inputs itself before tracing (:func:`~jaxchain._solve.simulate.time_span`,
     :class:`~jaxchain.SolveOptions`); traced inputs that fail them give NaN, which the
     solve's health reports."""
-    old = _eqx_errors.EQX_ON_ERROR
-    _eqx_errors.EQX_ON_ERROR = "nan"
-    try:
+    with errors_as_nan():
         yield
-    finally:
-        _eqx_errors.EQX_ON_ERROR = old
 
 
 def _zeros_of(observer: AbstractIntegralObserver, t0, y0, scene):
