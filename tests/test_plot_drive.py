@@ -191,12 +191,16 @@ def test_plot_snapshot_open_strand(engaged, tmp_path, index):
     coll = _roller_collection(ax)
     np.testing.assert_allclose(coll.get_offsets(), pos_mm)
     np.testing.assert_allclose(coll.get_widths(), 2e3 * float(scene.roller_radius))
-    # colours: the force at that time, on a scale over the whole solution, 0 N masked
+    # colours: the force at that time, on that time's scale (the run's with scale="run"),
+    # 0 N masked
     force = np.asarray(sol.roller_sprocket_force[i])
     arr = coll.get_array()
     np.testing.assert_allclose(arr.filled(0.0), force)
     assert np.array_equal(np.ma.getmaskarray(arr), force == 0)
-    assert coll.get_clim() == (0.0, pytest.approx(float(np.max(sol.roller_sprocket_force))))
+    assert coll.get_clim() == (0.0, pytest.approx(float(np.max(force))))
+    run = _roller_collection(plot_snapshot(scene, sol, index, scale="run"))
+    assert run.get_clim() == (0.0, pytest.approx(float(np.max(sol.roller_sprocket_force))))
+    assert float(np.max(force)) < float(np.max(sol.roller_sprocket_force))  # they differ
     assert coll.colorbar is not None and "[N]" in coll.colorbar.ax.get_ylabel()
     (chain,) = [ln for ln in ax.get_lines() if ln.get_label() == "chain"]
     np.testing.assert_allclose(np.column_stack(chain.get_data()), pos_mm)  # open: not closed
@@ -244,6 +248,8 @@ def test_plot_snapshot_options(engaged):
     assert "[m/s]" in coll.colorbar.ax.get_ylabel()
     with pytest.raises(ValueError, match="color_by"):
         plot_snapshot(scene, sol, color_by="tension")
+    with pytest.raises(ValueError, match="scale"):
+        plot_snapshot(scene, sol, scale="all")
     n = sol.ts.shape[0]  # 501
     with pytest.raises(IndexError, match=f"index {n} out of range: the solution has {n} save"):
         plot_snapshot(scene, sol, n)

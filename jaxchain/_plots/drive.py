@@ -276,7 +276,7 @@ def _rotate(points: np.ndarray, angle: float) -> np.ndarray:
 class _Snapshot:
     """The artists of one drawn drive state, and how to move them to another save index."""
 
-    def __init__(self, scene: Scene, sol: Solution, ax, color_by, colorbar: bool):
+    def __init__(self, scene: Scene, sol: Solution, ax, color_by, colorbar: bool, frame=None):
         import matplotlib.collections as mcoll
         import matplotlib.patches as mpatches
 
@@ -337,7 +337,8 @@ class _Snapshot:
         else:
             import matplotlib as mpl
 
-            vmax = float(np.max(self.values)) if self.values.size else 0.0
+            shown = self.values if frame is None else self.values[frame]  # scale over these
+            vmax = float(np.max(shown)) if shown.size else 0.0
             vmax = vmax if vmax > 0 else 1.0
             # rollers out of contact (force exactly 0) are masked: drawn white
             self.rollers.set_cmap(mpl.colormaps[_CMAP].with_extremes(bad="white"))
@@ -485,6 +486,7 @@ def plot_snapshot(
     *,
     ax=None,
     color_by: str | None = "force",
+    scale: str = "frame",
 ):
     """The drive at save index ``index``: sprockets, chain and rollers, in millimetres.
 
@@ -492,14 +494,17 @@ def plot_snapshot(
     axis (marked +); the chain is a polyline through the roller centres (closed for a
     closed chain); rollers are circles of the roller radius coloured by ``color_by``:
     ``"force"`` (roller–sprocket normal force [N]), ``"speed"`` (roller speed [m/s]) or
-    None (uncoloured, no colorbar). The colour scale spans the whole solution, so
-    snapshots at different times compare. Returns the Axes.
+    None (uncoloured, no colorbar). ``scale``: the colour scale spans the values at that
+    time (``"frame"``, the default: the rollers that carry the load stand out) or the
+    whole solution (``"run"``: snapshots at different times compare, as the frames of
+    :func:`animate` do). Returns the Axes.
     """
     _solution(sol, "plot_snapshot", scene)
     i = _check_index(sol, index)
+    checks.choice("scale", scale, ("frame", "run"))
     if ax is None:
         ax = _snapshot_figure(scene, sol, [i]).add_subplot()
-    snap = _Snapshot(scene, sol, ax, color_by, colorbar=True)
+    snap = _Snapshot(scene, sol, ax, color_by, colorbar=True, frame=i if scale == "frame" else None)
     snap.update(i)
     snap.limits([i])
     return ax
