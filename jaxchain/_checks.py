@@ -237,13 +237,8 @@ def element_coordinates(scene, caller: str) -> None:
     integer >= 0, ``dof_inertia`` (D,) finite and > 0, ``dof_start`` two (D,) arrays,
     finite (values where concrete); else ``TypeError``/``ValueError`` naming the element
     and the method to fix."""
-    import jax
+    from ._numerics import is_concrete
 
-    concrete = lambda x: (
-        not any(  # noqa: E731
-            isinstance(v, jax.core.Tracer) for v in jax.tree_util.tree_leaves(x)
-        )
-    )
     for el in scene.force_elements:
         owner = f"{caller}: {type(el).__name__}"
         d = el.n_dofs(scene)
@@ -276,21 +271,15 @@ def element_coordinates(scene, caller: str) -> None:
                     f"{owner}.{what} must have shape ({d},) (n_dofs(scene) = {d}), got shape "
                     f"{np.shape(value)}"
                 )
-            if concrete(value):
+            if is_concrete(value):
                 v = np.asarray(value, dtype=float)
                 if not np.all(np.isfinite(v) & ok(v)):
                     raise ValueError(f"{owner}.{what} must be {rng}, got {v.tolist()}")
 
 
 def _real_array(owner: str, name: str, value) -> np.ndarray:
-    if isinstance(value, (str, bytes, bool, np.bool_)) or value is None:
-        raise TypeError(
-            f"{owner}.{name} must be a real number, got {type(value).__name__} {value!r}"
-        )
-    v = np.asarray(value)
-    if not (np.issubdtype(v.dtype, np.integer) or np.issubdtype(v.dtype, np.floating)):
-        raise TypeError(f"{owner}.{name} must be a real number, got {v.dtype} {value!r}")
-    return v.astype(float)
+    real_values(f"{owner}.{name}", value, "a real number")
+    return np.asarray(value, dtype=float)
 
 
 def fields(module, rules) -> None:

@@ -38,6 +38,7 @@ __all__ = [
     "contact_slots_ok",
     "bristle_layout",
     "dof_layout",
+    "dof_start",
     "effects",
 ]
 
@@ -184,13 +185,7 @@ def initial_state(scene: Scene) -> DriveState:
     speed): what :func:`vector_field` takes as ``y`` at t0."""
     _check_scene(scene, "initial_state")
     checks.element_coordinates(scene, "initial_state")
-    starts = [el.dof_start(scene) for el in _dof_owners(scene)]
-    dof = dof_rate = None
-    if starts:
-        dof = jnp.concatenate([jnp.reshape(jnp.asarray(p, scene.q0.dtype), -1) for p, _ in starts])
-        dof_rate = jnp.concatenate(
-            [jnp.reshape(jnp.asarray(r, scene.q0.dtype), -1) for _, r in starts]
-        )
+    dof, dof_rate = dof_start(scene)
     return DriveState(
         q=scene.q0,
         v=scene.v0,
@@ -222,6 +217,18 @@ def n_dofs(scene: Scene) -> int:
 
 def _dof_owners(scene: Scene):
     return [scene.force_elements[i] for i, _, _ in dof_layout(scene)]
+
+
+def dof_start(scene: Scene) -> tuple[Array | None, Array | None]:
+    """((D,), (D,)) every element coordinate and its rate at t = 0, in
+    :func:`dof_layout`'s order; (None, None) when there are none."""
+    starts = [el.dof_start(scene) for el in _dof_owners(scene)]
+    if not starts:
+        return None, None
+    dtype = scene.q0.dtype
+    return tuple(
+        jnp.concatenate([jnp.reshape(jnp.asarray(s[j], dtype), -1) for s in starts]) for j in (0, 1)
+    )
 
 
 def dof_inertia(scene: Scene) -> Array | None:

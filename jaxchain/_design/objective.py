@@ -84,7 +84,7 @@ def observe(
     outcome reported as a result code (classified as ``simulate`` classifies it), not
     raised. Solve options as in :func:`~jaxchain.simulate`; ``dt`` gives fixed steps,
     differentiated exactly (for gradients checked against finite differences)."""
-    opts = with_options(options, checks.solve_keywords("observe", solve_options), "observe")
+    opts = with_options(options, solve_options, "observe")
     _objective_observer(observer, "observe")
     if is_concrete(t1):
         t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
@@ -194,9 +194,7 @@ def soft_peak_force(
     The outcome is reported, not raised: ``PeakForce.result`` is classified exactly as
     ``simulate`` classifies the same solve (:class:`ProfileObjective` raises).
     """
-    opts = with_options(
-        options, checks.solve_keywords("soft_peak_force", solve_options), "soft_peak_force"
-    )
+    opts = with_options(options, solve_options, "soft_peak_force")
     if is_concrete((t1, t_start, temperature, reference, rise)):
         t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
         checks.real("temperature", temperature, lo=0.0, lo_open=True, unit="N")
@@ -498,11 +496,7 @@ class ProfileObjective:
         self.config = _Config(
             objective=objective,
             member_temperature=jnp.asarray(member_temperature, dtype=float),
-            options=with_options(
-                options,
-                checks.solve_keywords("ProfileObjective", solve_options),
-                "ProfileObjective",
-            ),
+            options=with_options(options, solve_options, "ProfileObjective"),
             t1=float(t1),
             sprocket=int(sprocket),
             take_up=float(take_up),

@@ -29,6 +29,7 @@ from .._contact.stiffness import tangent_stiffness
 from .._kinematics import nearest, points, scatter
 from .._numerics import cross2, safe_norm
 from .base import AbstractElement, Effect
+from .tensioners import arm_coordinates
 
 __all__ = ["Shoes", "ShoeContacts", "shoe_contacts", "shoe_frames", "smoothstep"]
 
@@ -158,9 +159,10 @@ def shoe_frames(y, scene):
     if sh.n_tensioners == 0:
         return zeros, jnp.zeros((n_guides, 2), sh.mid.dtype), zeros
     tn = scene.tensioners
-    turn = jnp.concatenate([y.dof[: sh.n_tensioners] - tn.layout_angle, zeros])
+    angle, rate = arm_coordinates(y, sh.n_tensioners)
+    turn = jnp.concatenate([angle - tn.layout_angle, zeros])
     pivot = jnp.concatenate([tn.pivot, jnp.zeros((n_guides, 2), sh.mid.dtype)])
-    rate = jnp.concatenate([y.dof_rate[: sh.n_tensioners], zeros])  # the arms: first
+    rate = jnp.concatenate([rate, zeros])
     return turn, pivot, rate
 
 

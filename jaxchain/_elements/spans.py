@@ -40,6 +40,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
 from .base import AbstractElement, Effect
+from .tensioners import arm_coordinates
 
 __all__ = ["Spans", "SpanGeometry", "pitch_curve_coefficients", "scaled_curve"]
 
@@ -319,7 +320,7 @@ class Spans(AbstractElement):
     def effect(self, t, y, scene, state) -> Effect:
         centres = jnp.stack([s.centre for s in scene.sprockets])
         tension, torque, arm_torque = self.tensions(
-            y.theta, y.omega, centres, *_arms(y, self.n_shoes)
+            y.theta, y.omega, centres, *arm_coordinates(y, self.n_shoes)
         )
         if not self.n_shoes:
             return Effect(body=jnp.zeros_like(y.q), sprocket_torque=torque, tension=tension)
@@ -333,7 +334,7 @@ class Spans(AbstractElement):
 
     def energy(self, t, y, scene) -> Array:
         centres = jnp.stack([s.centre for s in scene.sprockets])
-        e = self.stretch(y.theta, centres, _arms(y, self.n_shoes)[0])
+        e = self.stretch(y.theta, centres, arm_coordinates(y, self.n_shoes)[0])
         return jnp.sum(self.stiffness * _ramp_potential(e, self._width()))
 
     def outputs(self, t, y, scene, effect) -> dict[str, Array]:
@@ -341,11 +342,3 @@ class Spans(AbstractElement):
 
     def max_stiffness(self, scene, force) -> Array:
         return jnp.max(self.stiffness)
-
-
-def _arms(y, count: int):
-    """The tensioner arms' angles and rates (the first of ``y``'s element coordinates),
-    or (None, None) without shoes."""
-    if not count:
-        return None, None
-    return y.dof[:count], y.dof_rate[:count]

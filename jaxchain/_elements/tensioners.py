@@ -9,7 +9,16 @@ from jaxtyping import Array, Float
 
 from .base import AbstractElement, Effect
 
-__all__ = ["Tensioners"]
+__all__ = ["Tensioners", "arm_coordinates"]
+
+
+def arm_coordinates(y, count: int):
+    """The tensioner arms' angles [rad] and rates [rad/s], (count,) each: the first
+    ``count`` of ``y``'s element coordinates (the arms precede every element added to a
+    scene); (None, None) for no arm."""
+    if not count:
+        return None, None
+    return y.dof[:count], y.dof_rate[:count]
 
 
 class Tensioners(AbstractElement):
@@ -82,4 +91,5 @@ class Tensioners(AbstractElement):
         return jnp.sum(0.5 * self.stiffness * phi**2 - self.preload * phi)
 
     def outputs(self, t, y, scene, effect: Effect) -> dict[str, Array]:
-        return {"tensioner_angle": y.dof[: self.count], "tensioner_torque": effect.dof_force}
+        angle, _ = arm_coordinates(y, self.count)
+        return {"tensioner_angle": angle, "tensioner_torque": effect.dof_force}

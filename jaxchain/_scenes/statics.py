@@ -40,7 +40,7 @@ import optimistix as optx
 from jaxtyping import ArrayLike
 
 from .. import _checks as checks
-from .._dynamics import DriveState, dof_inertia, dof_layout, forces, initial_state, n_dofs
+from .._dynamics import DriveState, dof_inertia, dof_layout, dof_start, forces, n_dofs
 from .._numerics import is_concrete
 from .._programs import stored
 from .._scene import Scene
@@ -62,7 +62,7 @@ def _unpack(scene, x, pitch):
     scene = eqx.tree_at(lambda sc: [s.centre for s in sc.sprockets], scene, centres)
     dof = rate = None
     if n_dofs(scene):
-        dof = initial_state(scene).dof + x[3 * n + 2 * ns :] * pitch
+        dof = dof_start(scene)[0] + x[3 * n + 2 * ns :] * pitch
         rate = jnp.zeros_like(dof)
     y = DriveState(
         q=q, v=jnp.zeros_like(q), theta=theta, omega=jnp.zeros_like(theta), dof=dof, dof_rate=rate

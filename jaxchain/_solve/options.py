@@ -14,6 +14,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, ArrayLike
 
+from .. import _checks as checks
 from .._numerics import is_concrete
 from .adjoint import StepResidualsAdjoint
 
@@ -227,13 +228,15 @@ _FIELDS = tuple(f.name for f in dataclasses.fields(SolveOptions))
 
 def with_options(options: SolveOptions | None, given: dict, caller: str) -> SolveOptions:
     """``options`` (default ``SolveOptions()``) with the keyword options ``given`` replaced;
-    an unknown keyword raises ``TypeError`` listing the valid ones."""
+    an unknown keyword raises ``TypeError`` listing the valid ones, and a known one of the
+    wrong kind (``rtol="1e-6"``) ``TypeError`` naming it (:func:`checks.solve_keywords`)."""
     unknown = sorted(set(given) - set(_FIELDS))
     if unknown:
         raise TypeError(
             f"{caller}() got unexpected keyword argument(s) {unknown}; solve options are "
             f"{list(_FIELDS)}"
         )
+    checks.solve_keywords(caller, given)
     if options is None:
         return SolveOptions(**given)
     if not isinstance(options, SolveOptions):

@@ -250,7 +250,7 @@ def simulate(
     *,
     t0: ArrayLike = 0.0,
     ts: ArrayLike | None = None,
-    n_save: int = 501,
+    n_save: int = _N_SAVE,
     throw: bool = True,
     observers: tuple[AbstractStepObserver | AbstractIntegralObserver, ...] = (),
     options: SolveOptions | None = None,
@@ -278,7 +278,7 @@ def simulate(
     Jitted once per scene *structure*: a second call with new array values (speeds,
     profiles, loads, tolerances) does not retrace.
     """
-    opts = with_options(options, checks.solve_keywords("simulate", solve_options), "simulate")
+    opts = with_options(options, solve_options, "simulate")
     scene = strong_scene(scene, "simulate")
     checks.flag("simulate: throw", throw)
     if ts is not None and n_save != _N_SAVE:
