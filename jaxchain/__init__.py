@@ -21,6 +21,7 @@ from ._dynamics import (
     energy as energy,
     initial_state as initial_state,
     roller_kinematics as roller_kinematics,
+    roller_normal_forces as roller_normal_forces,
     vector_field as vector_field,
 )
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus

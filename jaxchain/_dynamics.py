@@ -34,6 +34,7 @@ __all__ = [
     "Forces",
     "energy",
     "roller_contacts",
+    "roller_normal_forces",
     "roller_kinematics",
     "contact_slots_ok",
     "bristle_layout",
@@ -315,6 +316,13 @@ def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
         at = [i for i, el in enumerate(scene.force_elements) if isinstance(el, RollerTeeth)][0]
         states = teeth.contact_states(scene, _element_states(y, scene)[at])
     return _roller_contacts(y, scene, scene.roller_law, scene.friction, cs, states)
+
+
+def roller_normal_forces(y: DriveState, scene: Scene) -> Float[Array, "S R"]:
+    """(S, R) each roller's normal force against each sprocket's teeth [N]: the normal law
+    alone (it reads depth and approach, not the friction), so no friction law and none of
+    its states are evaluated — what the per-step peak record samples."""
+    return _roller_contacts(y, scene, scene.roller_law, None, None, None).normal
 
 
 def contact_slots_ok(y: DriveState, scene: Scene) -> Array:

@@ -29,8 +29,8 @@ from .._dynamics import (
     Forces,
     contact_slots_ok,
     peak_tension,
-    roller_contacts,
     roller_kinematics,
+    roller_normal_forces,
 )
 from .._numerics import is_concrete, parabola_max
 from .._scene import Scene
@@ -135,35 +135,49 @@ def _reads_rollers(observer) -> bool:
 # ---------------------------------------------------------------------------- peak record
 def _roller_forces(y: DriveState, scene: Scene) -> Float[Array, " R"]:
     """(R,) each roller's tooth force, summed over sprockets."""
-    return jnp.sum(roller_contacts(y, scene).normal, axis=0)
+    return jnp.sum(roller_normal_forces(y, scene), axis=0)
 
 
 class PeakRecord(AbstractStepObserver):
     """The largest roller/tooth normal force over every accepted step [N] (what
     ``Solution.peak_contact_force`` reports, with the save times').
 
-    Each step's force is sampled per roller at its start, at ``samples − 1`` equally
-    spaced interior times (states from the solver's dense interpolant) and at its end —
-    ``samples + 1`` samples, 5 by default; the step's top is the largest
+    Each step's force is read per roller at its start and end; where it can reach the
+    record inside the step, also at ``samples − 1`` equally spaced interior times (states
+    from the solver's dense interpolant). The step's top is then the largest
     :func:`~jaxchain._numerics.parabola_max` over consecutive sample triples (never below
     a sample, continuous in them). The step ends alone miss the top of a short impact by
     up to the step's share of it; the samples take the peak's error down by about an
     order of magnitude at the tolerances a meshing study uses
-    (``benchmarks/work_precision.py`` charts error against time for each solver). The
-    cost is ``samples − 1`` roller-contact evaluations per step, in one vmapped call; the
-    running max needs no per-step buffer. NaN in any sample propagates (a blown-up step
-    is reported, never skipped).
+    (``benchmarks/work_precision.py`` charts error against time for each solver).
+
+    Where the top can be (``gate``, the default): a roller's force inside a step exceeds
+    the larger of its ends by at most |f''|·h²/8; f'' is estimated from the roller's
+    force at the ends of this step and the last one. The interior is sampled only in the
+    steps where some roller's end force plus eight times that bound reaches the record —
+    the steps of an impact's top; elsewhere (seated rollers, free spans) only the end
+    force is read, one contact evaluation per step instead of ``samples``
+    (``python -m benchmarks.peak_cost`` measures both and their peaks). ``gate=False``
+    samples every step. Under ``vmap`` (ensembles) both branches run, as without the
+    gate. NaN in any sample propagates (a blown-up step is reported, never skipped).
+
+    Give one in ``simulate``'s ``observers`` to set how ``peak_contact_force`` is read
+    (it is then that record, not a second one).
 
     Attributes:
         samples: intervals per step (static, ≥ 2: a parabola needs a start, an interior
             and an end sample).
+        gate: sample the interior only where the record can be reached (static).
     """
 
     reads_rollers: ClassVar[bool] = True
+    #: the curvature bound's safety factor (the force's curvature changes within a step)
+    SAFETY: ClassVar[float] = 8.0
 
     samples: int = eqx.field(static=True, default=4)
+    gate: bool = eqx.field(static=True, default=True)
 
-    def __init__(self, samples: int = 4):
+    def __init__(self, samples: int = 4, gate: bool = True):
         ok = isinstance(samples, (int, np.integer)) and not isinstance(samples, bool)
         if not (ok and samples >= 2):
             raise ValueError(
@@ -171,20 +185,41 @@ class PeakRecord(AbstractStepObserver):
                 f"interior and an end sample); got {samples!r}"
             )
         self.samples = int(samples)
+        self.gate = checks.flag("PeakRecord: gate", gate)
 
     def init(self, t0, y0, scene):
         f0 = _roller_forces(y0, scene)
-        return jnp.max(f0, initial=0.0), f0  # forces ≥ 0; 0 for a scene without rollers
+        peak = jnp.max(f0, initial=0.0)  # forces ≥ 0; 0 for a scene without rollers
+        # (peak, force at the step's start, at the last step's start, the last step's h)
+        return peak, f0, f0, jnp.zeros_like(peak)
 
     def step(self, t0, t1, y0, y1, dense, scene, state):
-        peak, f0 = state
+        peak, f0, fp, hp = state
         n = self.samples
-        ts = t0 + (t1 - t0) * jnp.arange(1, n) / n
-        ys = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b[None]]), dense(ts), y1)
-        f = jax.vmap(_roller_forces, in_axes=(0, None))(ys, scene)
-        f = jnp.concatenate([f0[None], f])  # (n + 1, R) at t0, t0 + h/n, ..., t1
-        peak = jnp.maximum(peak, jnp.max(parabola_max(f[:-2], f[1:-1], f[2:]), initial=0.0))
-        return peak, f[-1]  # the end force serves as the next step's start
+        h = t1 - t0
+        f1 = _roller_forces(y1, scene)
+
+        def sampled():
+            ts = t0 + h * jnp.arange(1, n) / n
+            fi = jax.vmap(_roller_forces, in_axes=(0, None))(dense(ts), scene)
+            f = jnp.concatenate([f0[None], fi, f1[None]])  # (n + 1, R) at t0, ..., t1
+            return jnp.maximum(peak, jnp.max(parabola_max(f[:-2], f[1:-1], f[2:]), initial=0.0))
+
+        if not self.gate:
+            return sampled(), f1, f0, h
+        ends = lambda: jnp.maximum(peak, jnp.max(f1, initial=0.0))
+        peak = jax.lax.cond(self.interior_needed(h, f1, state), sampled, ends)
+        return peak, f1, f0, h
+
+    def interior_needed(self, h, f1, state) -> Array:
+        """Whether a step of length ``h`` whose rollers end at forces ``f1`` can hold a
+        force at or above the record inside (the ``gate``): f'' from the three end forces
+        (t0 − hp, t0, t0 + h), the first step always."""
+        peak, f0, fp, hp = state
+        hp_safe = jnp.where(hp > 0, hp, 1.0)
+        curve = 2 * ((f1 - f0) / h - (f0 - fp) / hp_safe) / (h + hp_safe)
+        reach = jnp.maximum(f0, f1) + self.SAFETY * jnp.abs(curve) * h * h / 8
+        return (hp <= 0) | jnp.any(reach >= peak) | ~jnp.all(jnp.isfinite(reach))
 
     def value(self, state, t0, t1):
         return state[0]

@@ -270,7 +270,10 @@ def simulate(
             ``progress=``) set or override its fields.
         observers: more quantities computed along the solve (:mod:`jaxchain.observers`:
             e.g. ``OrderSpectrum`` lines of a sprocket's torque, ``SpeedVariation``);
-            their values are ``Solution.observed``, in order.
+            their values are ``Solution.observed``, in order. A
+            :class:`~jaxchain.observers.PeakRecord` among them is the one
+            ``peak_contact_force`` is read with (e.g. ``PeakRecord(gate=False)`` samples
+            every step's interior), not a second one.
 
     Returns:
         :class:`Solution`.
@@ -291,17 +294,21 @@ def simulate(
     check_horizon(scene, t1a, "simulate")
     observers = _checked_observers(observers, "simulate")
     check_rollers(scene, observers, "simulate")
-    traj = _solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), (PeakRecord(), *observers))
+    given = [k for k, o in enumerate(observers) if isinstance(o, PeakRecord)]
+    at = given[0] if given else 0  # the record peak_contact_force reads
+    if not given:
+        observers = (PeakRecord(), *observers)
+    traj = _solve(scene, t0a, t1a, tsa, opts.resolve(t0a, t1a), observers)
     saved = traj.saved
     if throw:
         saved = raise_if_failed(traj.result, saved, "simulate")
     return Solution(
         ts=tsa,
-        peak_contact_force=peak_of(saved, traj.observed[0]),
+        peak_contact_force=peak_of(saved, traj.observed[at]),
         result=traj.result,
         stats=traj.stats,
         y1=traj.y1,
-        observed=traj.observed[1:],
+        observed=traj.observed if given else traj.observed[1:],
         **split_saved(saved),
     )
 
