@@ -44,7 +44,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .. import _checks as checks
-from .._dynamics import roller_contacts, roller_kinematics
+from .._dynamics import roller_kinematics, roller_normal_forces
 from .._numerics import is_concrete, parabola_max
 from .._scene import Scene
 from .base import AbstractStepObserver, require_rollers
@@ -201,7 +201,7 @@ class EngagementPeaks(AbstractStepObserver):
     def _sample(self, y, scene):
         """(S, R) each pair's normal force [N], (S, R) roller distance from each axis [m],
         (S,) sprocket speeds [rad/s] of one state."""
-        normal = roller_contacts(y, scene).normal
+        normal = roller_normal_forces(y, scene)
         xr, _ = roller_kinematics(y, scene)
         centres = jnp.stack([s.centre for s in scene.sprockets])
         rel = xr[None, :, :] - centres[:, None, :]
