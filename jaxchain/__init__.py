@@ -18,6 +18,7 @@ from . import (
 from ._chain import ChainSpec as ChainSpec
 from ._dynamics import (
     DriveState as DriveState,
+    element_effects as element_effects,
     energy as energy,
     initial_state as initial_state,
     roller_kinematics as roller_kinematics,

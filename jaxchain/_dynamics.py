@@ -41,6 +41,7 @@ __all__ = [
     "dof_layout",
     "dof_start",
     "effects",
+    "element_effects",
 ]
 
 
@@ -368,6 +369,10 @@ def effects(t, y: DriveState, scene: Scene) -> list[Effect]:
             carried.append(e.tension)
         out.append(e)
     return out
+
+
+#: the public name of :func:`effects` (``jc.element_effects``)
+element_effects = effects
 
 
 def _tensions(parts, dtype):

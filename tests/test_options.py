@@ -36,7 +36,7 @@ def test_result_names_of_a_batch():
         (dict(rtol=0.0), ValueError, r"rtol must be a finite number in \(0, 1\), got 0.0"),
         (dict(rtol=2.0), ValueError, r"rtol must be a finite number in \(0, 1\), got 2.0"),
         (dict(atol=float("nan")), ValueError, r"atol must be a finite number > 0"),
-        (dict(max_steps=0), ValueError, r"max_steps must be a positive integer, got 0"),
+        (dict(max_steps=0), ValueError, r"max_steps must be a positive integer \(or None.*got 0"),
         (dict(max_steps=10.5), ValueError, r"max_steps must be a positive integer"),
         (dict(max_steps=True), ValueError, r"max_steps must be a positive integer"),
         (dict(dt0=-1e-6), ValueError, r"dt0 must be finite and > 0 s"),
@@ -186,3 +186,19 @@ def test_step_residuals_adjoint_checkpoints_past_its_memory_limit():
     np.testing.assert_allclose([g_every, g_few], [g_kept, g_kept], rtol=1e-12)
     assert kept > 2 * every > 4 * few, (kept, every, few)
     assert jc.StepResidualsAdjoint().memory_limit == 1e9
+
+
+def test_the_default_step_budget_follows_the_horizon():
+    """max_steps None (the default): the horizon over 0.5 µs, rounded up to a power of two,
+    at least 200 000 — a default 06B 21/42 drive at 1000 rpm takes about 1.6 µs steps and
+    ran out of a fixed 200 000 after 0.29 s; a set max_steps is kept as given."""
+    budget = lambda t1, **kw: jc.SolveOptions(**kw).resolve(0.0, t1).max_steps
+    assert budget(0.05) == 200_000  # short solves: the minimum (one compiled solve)
+    assert budget(0.29) == 2**20  # 580 000 steps of 0.5 µs, rounded up
+    assert budget(1.0) == 2**21  # 2 000 000 → 2 097 152
+    assert budget(1.0, max_steps=1000) == 1000
+    assert budget(jnp.asarray([0.1, 0.6])) == 2**21  # an ensemble's longest member
+    traced = jax.jit(lambda t1: jnp.asarray(jc.SolveOptions().resolve(0.0, t1).max_steps))
+    assert int(traced(1.0)) == 200_000  # a traced span: the minimum
+    with pytest.raises(ValueError, match="max_steps must be a positive integer"):
+        jc.SolveOptions(max_steps=0)

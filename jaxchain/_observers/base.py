@@ -157,7 +157,7 @@ class PeakRecord(AbstractStepObserver):
     steps where some roller's end force plus eight times that bound reaches the record —
     the steps of an impact's top; elsewhere (seated rollers, free spans) only the end
     force is read, one contact evaluation per step instead of ``samples``
-    (``python -m benchmarks.peak_cost`` measures both and their peaks). ``gate=False``
+    (``python -m benchmarks.step_cost`` measures both and their peaks). ``gate=False``
     samples every step. Under ``vmap`` (ensembles) both branches run, as without the
     gate. NaN in any sample propagates (a blown-up step is reported, never skipped).
 

@@ -42,8 +42,29 @@ class Resolved(NamedTuple):
 #: millisecond), and a step that overflows leaves its controller with a NaN step size that
 #: rejects every later step.
 DEFAULT_DT0 = 1e-7
-# the adaptive steps' settings, at their defaults (fixed steps refuse them set otherwise)
-_DEFAULTS = {"rtol": 1e-6, "atol": 1e-9, "max_steps": 200_000}
+# the adaptive steps' settings, at their defaults (fixed steps refuse them set otherwise);
+# max_steps None: it follows the horizon (horizon_steps)
+_DEFAULTS = {"rtol": 1e-6, "atol": 1e-9, "max_steps": None}
+#: The fewest steps an adaptive solve is given when ``max_steps`` is not set.
+MIN_STEP_BUDGET = 200_000
+#: The mean step [s] the default step budget allows for: a third of the smallest a
+#: default-built drive takes at ``simulate``'s tolerances (1.6 µs for a 06B drive;
+#: ``python -m benchmarks.step_budget``).
+BUDGET_STEP = 0.5e-6
+
+
+def horizon_steps(t0: ArrayLike, t1: ArrayLike) -> int:
+    """The default step budget of an adaptive solve over [t0, t1]: the horizon over
+    :data:`BUDGET_STEP`, rounded up to a power of two (so that nearby horizons share one
+    compiled solve), at least :data:`MIN_STEP_BUDGET`; that minimum where the span is
+    traced. (The budget is a bound, not a cost: a solve takes the steps it needs.)"""
+    if not is_concrete(t0, t1):
+        return MIN_STEP_BUDGET
+    span = float(np.max(np.asarray(t1, dtype=float) - np.asarray(t0, dtype=float)))
+    need = span / BUDGET_STEP
+    if not math.isfinite(need) or need <= MIN_STEP_BUDGET:
+        return MIN_STEP_BUDGET
+    return 2 ** math.ceil(math.log2(need))
 
 
 class SolveOptions(eqx.Module):
@@ -62,7 +83,10 @@ class SolveOptions(eqx.Module):
             (the exact discrete gradient, every step's residuals kept: nothing recomputed,
             memory 12–22 states per step; past 1 GB per solve it checkpoints instead). The
             step count is part of the compiled solve.
-        max_steps: step budget (static).
+        max_steps: step budget of an adaptive solve (static); default (None): it follows
+            the horizon, (t1 − t0)/0.5 µs rounded up to a power of two and at least 200 000
+            (:func:`horizon_steps`), so a default-built drive runs the revolutions asked
+            for. A solve that uses it up ends with ``max_steps_reached``.
         stepsize_controller: overrides the default controller.
         adjoint: diffrax adjoint for gradients (default: with ``dt``,
             :class:`~jaxchain.StepResidualsAdjoint`; otherwise recursive checkpointing with
@@ -87,7 +111,7 @@ class SolveOptions(eqx.Module):
     atol: float = _DEFAULTS["atol"]
     dt0: ArrayLike | None = None
     dt: float | None = None
-    max_steps: int = _DEFAULTS["max_steps"]
+    max_steps: int | None = _DEFAULTS["max_steps"]
     stepsize_controller: diffrax.AbstractStepSizeController | None = None
     adjoint: diffrax.AbstractAdjoint | None = None
     progress: bool = False
@@ -102,10 +126,13 @@ class SolveOptions(eqx.Module):
             raise TypeError(f"stepsize_controller must be a diffrax controller, got {c!r}")
         if self.adjoint is not None and not isinstance(self.adjoint, diffrax.AbstractAdjoint):
             raise TypeError(f"adjoint must be a diffrax adjoint, got {self.adjoint!r}")
-        if not isinstance(self.max_steps, (int, np.integer)) or isinstance(self.max_steps, bool):
-            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
-        if self.max_steps < 1:
-            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
+        if self.max_steps is not None:
+            m = self.max_steps
+            if not isinstance(m, (int, np.integer)) or isinstance(m, bool) or m < 1:
+                raise ValueError(
+                    f"max_steps must be a positive integer (or None: it follows the horizon), "
+                    f"got {m!r}"
+                )
         if is_concrete(self.rtol, self.atol):
             for name, hi in (("rtol", 1.0), ("atol", np.inf)):
                 v = np.asarray(getattr(self, name), dtype=float)
@@ -152,7 +179,8 @@ class SolveOptions(eqx.Module):
             unused = [
                 f"{name}={getattr(self, name)!r}"
                 for name in ("rtol", "atol", "max_steps")
-                if is_concrete(getattr(self, name))
+                if getattr(self, name) is not None
+                and is_concrete(getattr(self, name))
                 and not np.array_equal(getattr(self, name), _DEFAULTS[name])
             ]
             if unused:
@@ -187,7 +215,11 @@ class SolveOptions(eqx.Module):
         """What ``diffeqsolve`` takes over [t0, t1] (concrete values when ``dt`` is set:
         the step count fixes the compiled loop)."""
         solver = diffrax.Tsit5() if self.solver is None else self.solver
-        max_steps, adjoint = int(self.max_steps), self.adjoint
+        adjoint = self.adjoint
+        if self.max_steps is None:
+            max_steps = horizon_steps(t0, t1)
+        else:
+            max_steps = int(self.max_steps)
         if self.dt is not None:
             if not is_concrete(t0, t1):
                 raise ValueError("dt (fixed steps) needs a concrete time span: its step count")
