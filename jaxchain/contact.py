@@ -26,3 +26,23 @@ from ._contact.stiffness import (
     effective_radius as effective_radius,
     hertz_stiffness as hertz_stiffness,
 )
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "AbstractContactLaw",
+    "AbstractFilmLaw",
+    "AbstractFrictionLaw",
+    "AbstractHysteresisLaw",
+    "CoulombFriction",
+    "DahlFriction",
+    "Flores",
+    "Gonthier",
+    "HuntCrossley",
+    "JohnsonCylinder",
+    "LankaraniNikravesh",
+    "OilFilm",
+    "effective_radius",
+    "hertz_stiffness",
+    "hysteresis_restitution",
+    "johnson_dimensionless_force",
+]

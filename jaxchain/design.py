@@ -24,3 +24,18 @@ from ._design.objective import (
 )
 from ._design.space import PARAMETERS as PARAMETERS, DesignSpace as DesignSpace
 from ._design.sprocket import SprocketDesign as SprocketDesign, profile_of as profile_of
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "DesignSpace",
+    "Observed",
+    "PARAMETERS",
+    "PeakForce",
+    "Penalized",
+    "ProfileObjective",
+    "SprocketDesign",
+    "observe",
+    "profile_of",
+    "soft_peak_force",
+    "window_weight",
+]

@@ -22,3 +22,14 @@ from ._solve.distributed import (
     local_members as local_members,
     split as split,
 )
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "LocalMembers",
+    "Split",
+    "gather",
+    "global_mesh",
+    "initialize",
+    "local_members",
+    "split",
+]

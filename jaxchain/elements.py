@@ -37,3 +37,23 @@ from ._elements.rollers import RollerTeeth as RollerTeeth
 from ._elements.shoes import Shoes as Shoes
 from ._elements.spans import SpanGeometry as SpanGeometry, Spans as Spans
 from ._elements.tensioners import Tensioners as Tensioners
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "AbstractElement",
+    "Anchors",
+    "ClearanceJoints",
+    "CushionContacts",
+    "CushionRing",
+    "Effect",
+    "ElementState",
+    "Gravity",
+    "JointFriction",
+    "LinkSprings",
+    "PairGroup",
+    "RollerTeeth",
+    "Shoes",
+    "SpanGeometry",
+    "Spans",
+    "Tensioners",
+]

@@ -17,3 +17,12 @@ from ._loads import (
     Ramped as Ramped,
     camshaft_torque as camshaft_torque,
 )
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "AbstractLoad",
+    "Constant",
+    "Harmonic",
+    "Ramped",
+    "camshaft_torque",
+]

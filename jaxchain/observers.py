@@ -44,3 +44,25 @@ from ._observers.orders import (
     hann_window as hann_window,
     level_db as level_db,
 )
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "AbstractIntegralObserver",
+    "AbstractObserver",
+    "AbstractStepObserver",
+    "BandLevel",
+    "EXP_CAP",
+    "EngagementPeaks",
+    "EngagementRecord",
+    "LoadWork",
+    "OrderSpectrum",
+    "PeakRecord",
+    "SIGNALS",
+    "SampledSoftPeak",
+    "SoftPeak",
+    "SpeedVariation",
+    "hann_window",
+    "level_db",
+    "parabola_max",
+    "window_weight",
+]

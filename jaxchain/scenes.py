@@ -48,3 +48,36 @@ from ._scenes.statics import (
     statics_jacobian as statics_jacobian,
 )
 from ._solve.stack import stack as stack
+
+#: the public names (what the API reference and ``import *`` show)
+__all__ = [
+    "BUSH_TOOTH_FRICTION",
+    "CLEARANCE_JOINT_FRICTION",
+    "DriveSpec",
+    "Guide",
+    "JOINT_FRICTION",
+    "LoopLayout",
+    "POLYAMIDE",
+    "SHOE_FRICTION",
+    "SpanShoe",
+    "SprocketSpec",
+    "StrandSpec",
+    "Tensioner",
+    "closed_drive_layout",
+    "default_joint_friction",
+    "default_tooth_friction",
+    "drive",
+    "engagement",
+    "equilibrate",
+    "joint_law",
+    "link_stiffness",
+    "loop_layout",
+    "resettle",
+    "roller_law",
+    "shoe_law",
+    "span_element",
+    "stack",
+    "statics_jacobian",
+    "strand_layout",
+    "transport_velocity",
+]

@@ -50,7 +50,7 @@ class AbstractContactLaw(eqx.Module):
         return jnp.zeros(())
 
     def potential(self, depth: ArrayLike) -> Array:
-        """Energy the contact stores at ``depth`` [m] [J]: ∫ F(s, 0, ·) ds from the
+        """Energy [J] the contact stores at ``depth`` [m]: ∫ F(s, 0, ·) ds from the
         :meth:`onset` (the force at rest, no damping), what the energy balance and the
         statics' relaxation read. The default integrates :meth:`normal_force` by
         Gauss–Legendre quadrature (24 nodes); a law with a closed form may override it."""

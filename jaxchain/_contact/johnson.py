@@ -140,7 +140,7 @@ class JohnsonCylinder(AbstractHysteresisLaw):
         return self._scale * johnson_dimensionless_force(y)
 
     def deflection(self, force: ArrayLike) -> Array:
-        """Johnson's δ(F) = F/(πLE*)·[ln(4πLE*ΔR/F) − 1] [m] (explicit; 0 for F ≤ 0),
+        """Johnson's δ(F) = F/(πLE*)·(ln(4πLE*ΔR/F) − 1) [m] (explicit; 0 for F ≤ 0),
         the inverse of ``elastic_force`` (unregularized) within the theory's range."""
         s = jnp.asarray(force) / self._scale
         pos = s > 0
