@@ -709,7 +709,7 @@ def chart(results: dict, path: Path) -> None:
     ax.set_ylabel("|∂x/∂u₀| of every roller's position [m per unit u]")
     ax.set_title("State sensitivity to the seating radius (forward mode, fixed steps)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=8)
 
     ax = axes[0, 1]
     for i, row in enumerate(results["settled"]):
@@ -726,7 +726,7 @@ def chart(results: dict, path: Path) -> None:
     ax.set_title("Sharp peak: AD (lines) and central differences h = 1e-3, 1e-4, 1e-5 (marks)",
                  fontsize=9)  # fmt: skip
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=8)
 
     ax = axes[1, 0]
     for i, row in enumerate(results["windows"]):
@@ -747,7 +747,8 @@ def chart(results: dict, path: Path) -> None:
     ax.set_ylabel("d(mean per-engagement peak)/du₀ [N per unit u]")
     ax.set_title("Windows restarted from a running chain, averaged (95 % CI)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=6)
+    ax.set_ylim(top=1e4 * ax.get_ylim()[1])  # room for the legend above the data
+    ax.legend(fontsize=7, loc="upper right")
 
     ax = axes[1, 1]
     labels, mids, los, his = [], [], [], []
@@ -774,7 +775,7 @@ def chart(results: dict, path: Path) -> None:
     ax.errorbar(mids, y, xerr=[np.subtract(mids, los), np.subtract(his, mids)], fmt="o",
                 capsize=3, color="k")  # fmt: skip
     ax.axvline(0, color="0.6", lw=0.8)
-    ax.set_yticks(y, labels, fontsize=6)
+    ax.set_yticks(y, labels, fontsize=8)
     ax.set_xscale("symlog", linthresh=10)
     ax.set_xlabel("d(mean peak)/du [N per unit u] (95 % CI)")
     ax.set_title("What the designer wants against what the gradients give", fontsize=9)

@@ -5,8 +5,12 @@ of physics switched off at a time.
     python -m benchmarks.clearance_peak            # full study (~21 min on 2 busy cores)
     python -m benchmarks.clearance_peak --quick    # smoke run (3 engagements per variant)
     python -m benchmarks.clearance_peak --resume   # statistics and chart from saved solves
+    python -m benchmarks.clearance_peak --chart-only  # the figures again from the JSON
 
-Writes ``benchmarks/results/clearance_peak.json`` and ``clearance_peak.png``.
+Writes ``benchmarks/results/clearance_peak.json`` and its figures: ``clearance_peak.png``
+(the peak against the bush point's approach speed, by link side),
+``clearance_peak_rattle.png``, ``clearance_peak_correlations.png`` and
+``clearance_peak_variants.png``.
 
 The scene: the 08B strand meshing an 18-tooth driver under 1000 N
 (``jc.scenes.engagement(..., fidelity="clearance")``, settled start, Tsit5 at
@@ -57,6 +61,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from pathlib import Path
 from typing import NamedTuple
 
 import jax
@@ -641,21 +646,51 @@ def correlations(runs: dict, variant: str) -> dict:
 
 
 # ---------------------------------------------------------------------------------- chart
-SCATTER = (
-    ("onset", "rattle_n"),
-    ("onset", "rattle"),
-    ("onset", "ecc_n"),
-    ("onset", "ecc"),
-    ("onset", "pin_ecc_n"),
-    ("onset", "pin_ecc"),
-    ("onset", "spin"),
-    ("onset", "approach"),
-    ("onset", "bush_approach"),
-    ("engagement", "same_link"),
-    ("peak_contact", "approach"),
-    ("at_max", "bush_force"),
+#: the figures :func:`chart` writes beside ``path`` (``clearance_peak.png`` itself: what
+#: sets the peak), by the suffix of their name
+FIGURES = {
+    "rattle": "the rattle at onset against the peak, by link side (default variant)",
+    "correlations": "Spearman ρ of every candidate with the peak",
+    "variants": "the variants' peak distributions and where their scatter comes from",
+}
+#: the 2×2 of :func:`_chart_link`: (joint friction on/off) × (roller on its bush joint/fixed)
+GRID = (
+    (DEFAULT, "roller fixed to bush"),
+    ("frictionless joints", "roller fixed to bush, frictionless"),
 )
-SHORT = {DEFAULT: "friction", "frictionless joints": "frictionless"}
+#: the rattle quantities of :func:`_chart_rattle`
+RATTLE_SHOWN = (
+    ("onset", "rattle"),
+    ("onset", "rattle_n"),
+    ("onset", "ecc_n"),
+    ("onset", "pin_ecc_n"),
+)
+#: the candidates' names on the correlation chart (``record.field`` -> short label)
+SHORT_LABEL = {
+    "onset.rattle_n": "(a) rattle toward tooth",
+    "onset.rattle": "(a) |roller − bush velocity|",
+    "onset.ecc_n": "(b) roller eccentricity toward tooth",
+    "onset.ecc": "(b) |roller eccentricity|",
+    "onset.pin_ecc_n": "(b) pin/bush eccentricity toward tooth",
+    "onset.pin_ecc": "(b) |pin/bush eccentricity|",
+    "onset.spin": "(c) roller spin",
+    "onset.spin_rel": "(c) roller spin relative to its link",
+    "onset.approach": "(d) roller approach speed",
+    "onset.bush_approach": "bush point's approach speed",
+    "peak_contact.approach": "peak's contact: roller approach speed",
+    "peak_contact.rattle_n": "peak's contact: rattle toward tooth",
+    "peak_contact.bush_approach": "peak's contact: bush approach speed",
+    "peak_contact.ecc_n": "peak's contact: roller eccentricity",
+    "engagement.same_link": "second roller of its link (0/1)",
+    "engagement.contact_index": "contact (bounce) holding the peak",
+    "engagement.lag": "peak time − onset",
+    "engagement.onset_periods": "onset time (a drift along the run)",
+    "at_max.bush_force": "bush/roller joint force at the peak",
+    "at_max.pin_force": "pin/bush joint force at the peak",
+}
+#: the two quantities the claim names (bold on the correlation chart)
+LINK_KEYS = ("onset.bush_approach", "engagement.same_link")
+SHORT = {DEFAULT: "default (Dahl friction)", "frictionless joints": "frictionless joints"}
 TAG = {
     DEFAULT: "default",
     "frictionless joints": "frictionless",
@@ -663,125 +698,293 @@ TAG = {
     "roller fixed to bush, frictionless": "fixed,\nfrictionless",
     "lumped chain": "lumped",
 }
+#: which roller of its link meshes: marker colour and fill (open: first, filled: second)
+SIDE_STYLE = {0.0: ("C0", "none"), 1.0: ("C1", "C1")}
+#: the variants' colours (none of :data:`SIDE_STYLE`'s, nor the p95 bars' red)
+COLOUR = dict(zip(VARIANTS, ("C2", "C4", "C5", "C9", "C7"), strict=True))
+#: text sizes [pt]: every text on the charts is at least 8 pt
+STYLE = {
+    "font.size": 9,
+    "axes.titlesize": 10,
+    "axes.labelsize": 9,
+    "xtick.labelsize": 8,
+    "ytick.labelsize": 8,
+    "legend.fontsize": 8,
+}
 
 
-def chart(results: dict, path) -> None:
+def figure_path(path, suffix: str) -> Path:
+    """``clearance_peak_<suffix>.png`` beside ``path``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}_{suffix}{path.suffix}")
+
+
+def _rho(c: dict | None) -> str:
+    """'ρ = +0.51 (p 0.002, n 33)' or '—'."""
+    if not c or c.get("spearman") is None:
+        return "—"
+    return f"ρ = {c['spearman']:+.2f} (p {c['spearman_p']:.1g}, n {c['n']})"
+
+
+def _r_rho(c: dict | None) -> str:
+    """'r = +0.57, ρ = +0.51 (p 0.002)' or '—'."""
+    if not c or c.get("spearman") is None:
+        return "—"
+    return f"r = {c['pearson']:+.2f}, ρ = {c['spearman']:+.2f} (p {c['spearman_p']:.1g})"
+
+
+def _by_side(ax, row: dict, rec: str, field: str, ms: float = 6.0) -> None:
+    """The engagements' peaks against ``rec.field``, open for the first roller of its
+    link, filled for the second (labelled for a legend)."""
+    x, y = values(row, rec, field), np.asarray(row["peak_N"])
+    side = values(row, "engagement", "same_link")
+    for key, name in SIDES.items():
+        colour, fill = SIDE_STYLE[key]
+        m = side == key
+        if m.any():
+            ax.plot(x[m], y[m], "o", ms=ms, mec=colour, mfc=fill, mew=1.2, alpha=0.85, label=name)
+
+
+def _side_legend(fig, title: str | None = None) -> None:
+    """The figure's legend of :data:`SIDE_STYLE`, at the bottom."""
+    from matplotlib.lines import Line2D
+
+    handles = [
+        Line2D([], [], ls="", marker="o", ms=6, mec=colour, mfc=fill, mew=1.2)
+        for colour, fill in (SIDE_STYLE[k] for k in SIDES)
+    ]
+    labels = [f"{'filled' if k else 'open'}: {name}" for k, name in SIDES.items()]
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=9, title=title)
+
+
+def _note(ax, lines: list[str], loc: str = "upper left") -> None:
+    """A boxed note in a corner of ``ax``."""
+    x, ha = (0.03, "left") if "left" in loc else (0.97, "right")
+    y, va = (0.97, "top") if "upper" in loc else (0.03, "bottom")
+    ax.text(
+        x,
+        y,
+        "\n".join(lines),
+        transform=ax.transAxes,
+        ha=ha,
+        va=va,
+        fontsize=8,
+        bbox={"boxstyle": "round", "fc": "white", "ec": "0.7", "alpha": 0.9},
+    )
+
+
+def _chart_link(results: dict, path) -> None:
+    """What sets the peak: the peak against the bush point's approach speed at onset, by
+    which roller of its link meshes; joint friction on (top) and off (bottom), the roller
+    on its bush joint (left) and fixed to its bush (right)."""
     import matplotlib.pyplot as plt
 
     runs = results["runs"]
-    rpm = next(iter(runs))  # the main operating point
-    by = runs[rpm]
-    names = [n for n in VARIANTS if by.get(n, {}).get("ok")]
-    colour = {n: f"C{i}" for i, n in enumerate(VARIANTS)}
-    labels = {f"{r}.{f}": lab for r, f, lab in CANDIDATES}
-    corr = results.get("correlations", {})
-    fig = plt.figure(figsize=(21, 17))
-    gs = fig.add_gridspec(4, 5, width_ratios=(1, 1, 1, 1, 1.25))
-    for i, (rec, field) in enumerate(SCATTER):
-        ax = fig.add_subplot(gs[i // 4, i % 4])
-        key = f"{rec}.{field}"
-        for name in names:
-            x, y = values(by[name], rec, field), np.asarray(by[name]["peak_N"])
-            if not (np.isfinite(x).any() and np.ptp(x[np.isfinite(x)]) > 0):
+    rpm = next(iter(runs))
+    by, vs = runs[rpm], results["variants"][rpm]
+    corr, reg = results.get("correlations", {}), results.get("regression", {})
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.4), sharex="row", squeeze=False)
+    for i, pair in enumerate(GRID):
+        for j, name in enumerate(pair):
+            ax = axes[i, j]
+            row = by.get(name, {})
+            ax.set_title(f"{name}: {rpm} rpm", fontsize=10)
+            if not row.get("ok"):
+                ax.text(0.5, 0.5, "not run", transform=ax.transAxes, ha="center")
                 continue
-            side = values(by[name], "engagement", "same_link")
-            for sk, fill in ((1.0, colour[name]), (0.0, "none")):
-                m = side == sk if sk else side != 1.0
-                ax.plot(
-                    x[m],
-                    y[m],
-                    "o",
-                    ms=4.5,
-                    mec=colour[name],
-                    mfc=fill,
-                    alpha=0.8,
-                    label=name if sk else None,
+            _by_side(ax, row, "onset", "bush_approach")
+            c = corr.get(name, {}).get("onset.bush_approach", {})
+            lines = [f"all: {_r_rho(c.get(rpm))}"]
+            lines += [
+                f"{n.split(' of')[0]}: {_r_rho(c.get(f'{rpm}, {n}'))}" for n in SIDES.values()
+            ]
+            d = vs.get(name, {}).get("by_link_side", {}).get("second against first")
+            if d:
+                lines.append(
+                    f"second − first: {d['difference']:+.0f} N ({d['relative']:+.0%}), "
+                    f"95 % CI [{d['ci_low']:+.0f}, {d['ci_high']:+.0f}]"
                 )
-        text = []
-        for name, short in SHORT.items():
-            c = corr.get(name, {}).get(key, {}).get(rpm)
-            if c and c.get("spearman") is not None:
-                text.append(
-                    f"{short}: r={c['pearson']:+.2f}, ρ={c['spearman']:+.2f} "
-                    f"(n={c['n']}, p={c['spearman_p']:.1g})"
+            if reg.get(name, {}).get("link"):
+                lines.append(
+                    f"R² of the peak on link side + bush approach: {reg[name]['link']['r2']:.3f}"
                 )
-        ax.set_title("\n".join(text) or "(constant)", fontsize=8)
-        ax.set_xlabel(labels[key], fontsize=8)
-        ax.set_ylabel("engagement peak [N]", fontsize=8)
-        ax.tick_params(labelsize=7)
+            # a complete split of the peaks by side: every peak above a level is a second roller
+            side, pk = values(row, "engagement", "same_link"), np.asarray(row["peak_N"])
+            if (side == 0.0).any() and (side == 1.0).any():
+                top_first, low_second = pk[side == 0.0].max(), pk[side == 1.0].min()
+                if top_first < low_second:
+                    ax.axhline(top_first, color="0.4", ls=":", lw=1)
+                    lines.append(f"dotted: every peak above {top_first:.0f} N is a second roller")
+            _note(ax, lines)
+            ax.set_xlabel("bush point's approach speed toward the tooth at onset [m/s]")
+            ax.set_ylabel("engagement peak [N]")
+            # room for the note above the data
+            lo, hi = ax.get_ylim()
+            ax.set_ylim(lo, hi + (0.1 + 0.07 * len(lines)) * (hi - lo))
+    _side_legend(fig)
+    save_chart(fig, results, path, rect=(0, 0.04, 1, 0.98))
 
-    # Spearman ρ of every candidate, with the p = 0.05 band for n engagements
-    ax = fig.add_subplot(gs[0:3, 4])
+
+def _chart_rattle(results: dict, path) -> None:
+    """The rattle at onset against the peak in the default variant, by link side: the
+    correlation over all engagements, and within each side."""
+    import matplotlib.pyplot as plt
+
+    runs = results["runs"]
+    rpm = next(iter(runs))
+    row = runs[rpm].get(DEFAULT, {})
+    corr = results.get("correlations", {}).get(DEFAULT, {})
+    labels = {f"{r}.{f}": lab for r, f, lab in CANDIDATES}
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8.4), sharey=True, squeeze=False)
+    for ax, (rec, field) in zip(axes.flat, RATTLE_SHOWN, strict=True):
+        key = f"{rec}.{field}"
+        if row.get("ok") and np.isfinite(values(row, rec, field)).any():
+            _by_side(ax, row, rec, field)
+        c = corr.get(key, {})
+        lines = [f"all: {_rho(c.get(rpm))}"]
+        lines += [f"{n.split(' of')[0]}: {_rho(c.get(f'{rpm}, {n}'))}" for n in SIDES.values()]
+        _note(ax, lines)
+        ax.set_xlabel(labels[key])
+        ax.margins(y=0.08)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("engagement peak [N]")
+    lo, hi = axes[0, 0].get_ylim()
+    axes[0, 0].set_ylim(lo, hi + 0.3 * (hi - lo))
+    _side_legend(
+        fig, f"{DEFAULT}, {rpm} rpm: the roller's rattle at onset ([c]: the joint's clearance)"
+    )
+    save_chart(fig, results, path, rect=(0, 0.07, 1, 0.98))
+
+
+def _chart_correlations(results: dict, path) -> None:
+    """Spearman ρ of every candidate with the peak: over all engagements with and without
+    joint friction (left), and within each side of the link with friction (right), each
+    with its p = 0.05 band."""
+    import matplotlib.pyplot as plt
+
+    rpm = next(iter(results["runs"]))
+    corr = results.get("correlations", {})
     keys = [f"{r}.{f}" for r, f, _ in CANDIDATES]
     ypos = np.arange(len(keys))
-    for j, (name, short) in enumerate(SHORT.items()):
-        rho = [corr.get(name, {}).get(k, {}).get(rpm, {}).get("spearman") for k in keys]
-        rho = [np.nan if v is None else v for v in rho]
-        ax.barh(ypos + (j - 0.5) * 0.38, rho, height=0.38, color=colour[name], label=short)
-    n = by.get(DEFAULT, {}).get("n", 0)
-    if n > 3:
-        band = 1.96 / math.sqrt(n - 1)
-        ax.axvspan(-band, band, color="0.9", zorder=0, label=f"|ρ| < {band:.2f} (p > 0.05, n={n})")
-    ax.set_yticks(ypos, [k.replace("peak_contact", "peak's contact") for k in keys], fontsize=7)
+    fig, axes = plt.subplots(1, 2, figsize=(11.5, 8), sharey=True, squeeze=False)
+    panels = (
+        (
+            f"{rpm} rpm, all engagements",
+            [(name, short, rpm, COLOUR[name]) for name, short in SHORT.items()],
+        ),
+        (
+            f"{rpm} rpm, {SHORT[DEFAULT]}: within each side",
+            [(DEFAULT, n, f"{rpm}, {n}", SIDE_STYLE[k][0]) for k, n in SIDES.items()],
+        ),
+    )
+    for ax, (title, bars) in zip(axes[0], panels, strict=True):
+        height = 0.8 / len(bars)
+        ns, missing = [], []
+        for j, (name, label, at, colour) in enumerate(bars):
+            cs = [corr.get(name, {}).get(k, {}).get(at) or {} for k in keys]
+            rho = [np.nan if c.get("spearman") is None else c["spearman"] for c in cs]
+            ns += [c["n"] for c in cs if c.get("n")]
+            off = (j - (len(bars) - 1) / 2) * height
+            ax.barh(ypos + off, rho, height=height, color=colour, label=label)
+            missing.append(
+                [(y, label) for y, r in zip(ypos + off, rho, strict=True) if np.isnan(r)]
+            )
+        # a candidate constant over the engagements (or too few of them) has no ρ
+        for i in ypos:
+            gone = [(y, lab) for m in missing for y, lab in m if round(y) == i]
+            if len(gone) == len(bars):
+                ax.text(0.02, i, "no ρ: constant", va="center", fontsize=8, color="0.4")
+            elif gone:
+                for y, lab in gone:
+                    ax.text(
+                        0.02, y, f"no ρ ({lab}): constant", va="center", fontsize=8, color="0.4"
+                    )
+        if ns and min(ns) > 3:
+            n_lo, n_hi = min(ns), max(ns)
+            band = 1.96 / math.sqrt(n_hi - 1)
+            n_text = (
+                f"n = {n_hi}"
+                if n_lo == n_hi
+                else f"n = {n_hi}; {1.96 / math.sqrt(n_lo - 1):.2f} at n = {n_lo}"
+            )
+            ax.axvspan(
+                -band, band, color="0.9", zorder=0, label=f"|ρ| < {band:.2f}: p > 0.05 ({n_text})"
+            )
+        ax.axvline(0, color="k", lw=0.6)
+        ax.set_xlim(-1, 1)
+        ax.set_xlabel("Spearman ρ with the engagement peak")
+        ax.set_title(title)
+        ax.legend(loc="lower left", bbox_to_anchor=(0, 1.04), ncol=1, frameon=False)
+        ax.grid(axis="x", color="0.85", lw=0.5)
+    ax = axes[0, 0]
+    ax.set_yticks(ypos, [SHORT_LABEL.get(k, k) for k in keys])
+    for k, tick in zip(keys, ax.get_yticklabels(), strict=True):
+        if k in LINK_KEYS:
+            tick.set_fontweight("bold")
     ax.invert_yaxis()
-    ax.axvline(0, color="k", lw=0.6)
-    ax.set_xlim(-1, 1)
-    ax.set_xlabel("Spearman ρ with the engagement peak", fontsize=8)
-    ax.set_title(f"{rpm} rpm: rank correlation of each candidate", fontsize=9)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.set_ylabel("(a)–(d), bush point: at the onset of contact")
+    save_chart(fig, results, path, rect=(0, 0, 1, 0.98))
 
-    # the variants: per-engagement peaks, mean ± 95 % CI, p95
-    ax = fig.add_subplot(gs[3, 0:2])
-    vs = results["variants"][rpm]
+
+def _chart_variants(results: dict, path) -> None:
+    """The variants: per-engagement peaks with mean ± 95 % CI and p95; the coefficients
+    of variation of the peak, the approach speed and their ratio; the peaks in meshing
+    order."""
+    import matplotlib.pyplot as plt
+
+    runs = results["runs"]
+    rpm = next(iter(runs))
+    by, vs = runs[rpm], results["variants"][rpm]
+    names = [n for n in VARIANTS if by.get(n, {}).get("ok")]
+    colour = COLOUR
+    fig = plt.figure(figsize=(12, 9))
+    gs = fig.add_gridspec(2, 2, height_ratios=(1.15, 1), width_ratios=(1, 1.3))
+
+    ax = fig.add_subplot(gs[0, :])
     for i, name in enumerate(names):
         pk = np.asarray(by[name]["peak_N"])
+        side = values(by[name], "engagement", "same_link")
         jitter = 0.2 * (np.random.default_rng(i).random(len(pk)) - 0.5)
-        ax.plot(i + jitter, pk, ".", color=colour[name], ms=5, alpha=0.6)
-        st = vs[name]["statistics"]
+        for key in SIDES:
+            m = side == key if key else side != 1.0
+            ax.plot(
+                i + jitter[m],
+                pk[m],
+                "o",
+                ms=4.5,
+                mec=colour[name],
+                mfc=colour[name] if key else "none",
+                alpha=0.7,
+            )
+        st = vs.get(name, {}).get("statistics")
+        if not st:
+            continue
         ax.errorbar(
-            i + 0.3,
+            i + 0.25,
             st["mean"],
             yerr=[[st["mean"] - st["ci_low"]], [st["ci_high"] - st["mean"]]],
             fmt="o",
             color="k",
             capsize=4,
         )
-        ax.plot(i + 0.3, st["p95"], "_", color="C3", ms=16, mew=2)
+        ax.plot(i + 0.25, st["p95"], "_", color="C3", ms=16, mew=2)
         ax.annotate(
-            f"n={st['n']}\nmean {st['mean']:.0f} N\nCV {st['std'] / st['mean']:.0%}",
-            (i + 0.38, st["mean"]),
-            fontsize=7,
+            f"mean {st['mean']:.0f} N\np95 {st['p95']:.0f} N\nCV {st['std'] / st['mean']:.0%}",
+            (i + 0.34, st["mean"]),
+            fontsize=8,
             va="center",
         )
-    ax.set_xticks(
-        range(len(names)), [n.replace(", ", ",\n").replace(" (", "\n(") for n in names], fontsize=8
+    ax.set_xticks(range(len(names)), [n.replace(", ", ",\n").replace(" (", "\n(") for n in names])
+    ax.set_xlim(-0.4, len(names) - 0.15)
+    ax.set_ylabel("engagement peak [N]")
+    n = min((vs.get(k, {}).get("statistics", {}).get("n", 0) for k in names), default=0)
+    ax.set_title(
+        f"{rpm} rpm, {n} engagements each: peaks (open: first roller of its link, filled: "
+        "second), mean ± 95 % CI (black), p95 (red bar)"
     )
-    ax.set_xlim(-0.5, len(names) - 0.1)
-    ax.set_ylabel("engagement peak [N]", fontsize=8)
-    ax.set_title(f"{rpm} rpm: peaks (dots), mean ± 95 % CI (black), p95 (red bar)", fontsize=9)
-    ax.tick_params(labelsize=7)
-
-    # the peaks in meshing order
-    ax = fig.add_subplot(gs[3, 2:4])
-    for name in names:
-        r = by[name]
-        ax.plot(
-            np.asarray(r["onset_s"]) / r["tooth_period_s"],
-            r["peak_N"],
-            "o-",
-            ms=3,
-            lw=0.8,
-            color=colour[name],
-            label=name,
-        )
-    ax.set_xlabel("onset [tooth periods]", fontsize=8)
-    ax.set_ylabel("engagement peak [N]", fontsize=8)
-    ax.set_title("peaks in meshing order", fontsize=9)
-    ax.tick_params(labelsize=7)
-    ax.legend(fontsize=7, ncol=2)
 
     # where the scatter is: the approach speed's or the peak per approach speed's
-    ax = fig.add_subplot(gs[3, 4])
+    ax = fig.add_subplot(gs[1, 0])
     imp = vs.get("impedance", {})
     shown = [n for n in names if n in imp]
     width = 0.27
@@ -796,32 +999,51 @@ def chart(results: dict, path) -> None:
             np.arange(len(shown)) + (j - 1) * width,
             [imp[n][k] for n in shown],
             width,
-            color=f"C{j + 6}",
+            color=("0.2", "0.55", "0.85")[j],
+            edgecolor="k",
+            lw=0.5,
             label=lab,
         )
-    ax.set_xticks(
-        range(len(shown)),
-        [TAG[n] for n in shown],
-        fontsize=7.5,
-    )
-    ax.set_ylabel("coefficient of variation over engagements", fontsize=8)
-    ax.set_title("scatter of the peak, the approach speed, their ratio", fontsize=9)
-    ax.tick_params(axis="y", labelsize=7)
-    ax.legend(fontsize=7)
-    handles, leg = [], []
-    for a in fig.axes[: len(SCATTER)]:
-        for h, lab in zip(*a.get_legend_handles_labels(), strict=True):
-            if lab not in leg:
-                handles.append(h)
-                leg.append(lab)
-    from matplotlib.lines import Line2D
+    ax.set_xticks(range(len(shown)), [TAG[n] for n in shown])
+    ax.yaxis.set_major_formatter(plt.matplotlib.ticker.PercentFormatter(1.0, decimals=0))
+    ax.set_ylabel("coefficient of variation over engagements")
+    ax.set_title("scatter of the peak, the approach speed, their ratio")
+    ax.legend()
 
-    for key, name in SIDES.items():
-        fill = "k" if key else "none"
-        handles.append(Line2D([], [], ls="", marker="o", mec="k", mfc=fill))
-        leg.append(f"{'filled' if key else 'open'}: {name}")
-    fig.legend(handles, leg, loc="lower center", ncol=4, fontsize=9)
-    save_chart(fig, results, path, rect=(0, 0.035, 1, 0.98))
+    # the peaks in meshing order
+    ax = fig.add_subplot(gs[1, 1])
+    for name in names:
+        r = by[name]
+        ax.plot(
+            np.asarray(r["onset_s"]) / r["tooth_period_s"],
+            r["peak_N"],
+            "o-",
+            ms=3,
+            lw=0.8,
+            color=colour[name],
+            label=TAG[name].replace("\n", " "),
+        )
+    ax.set_xlabel("onset [tooth periods]")
+    ax.set_ylabel("engagement peak [N]")
+    ax.set_title("peaks in meshing order")
+    ax.legend(ncol=3, loc="upper left")
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(lo, hi + 0.2 * (hi - lo))
+    save_chart(fig, results, path, rect=(0, 0, 1, 0.98))
+
+
+def chart(results: dict, path) -> None:
+    """``path`` (``clearance_peak.png``): the peak against the bush point's approach speed
+    by link side, friction on/off × roller on its joint/fixed; and beside it the figures of
+    :data:`FIGURES`: ``clearance_peak_rattle.png``, ``_correlations.png``,
+    ``_variants.png``."""
+    import matplotlib.pyplot as plt
+
+    with plt.rc_context(STYLE):
+        _chart_link(results, path)
+        _chart_rattle(results, figure_path(path, "rattle"))
+        _chart_correlations(results, figure_path(path, "correlations"))
+        _chart_variants(results, figure_path(path, "variants"))
 
 
 def main(argv=None) -> dict:
@@ -841,7 +1063,16 @@ def main(argv=None) -> dict:
         "--out) or of the last finished one (clearance_peak.json), same options; the result "
         "keeps that run's command, date and machine",
     )
+    ap.add_argument(
+        "--chart-only",
+        action="store_true",
+        help="redraw the figures from the saved clearance_peak.json in --out (no solves)",
+    )
     args = parse(ap, argv)
+    if args.chart_only:
+        results = json.loads((args.out / "clearance_peak.json").read_text())
+        chart(results, args.out / "clearance_peak.png")
+        return results
     start = time.perf_counter()
     results = header("clearance_peak", argv)
     speeds, n_entry = (1250.0,), 5

@@ -252,7 +252,9 @@ def chart(res: dict, path) -> None:
     ax[0].barh(labels, values, color=cols)
     ax[0].axvline(1.5, color="k", ls="--", lw=0.8, label="goal: 1.5× at the same link count")
     for i, (v, note) in enumerate(zip(values, notes, strict=True)):
-        ax[0].text(v, i, note, va="center", fontsize=8)
+        ax[0].text(
+            v, i, note, va="center", fontsize=8, bbox={"fc": "white", "ec": "none", "pad": 0.5}
+        )
     ax[0].set_xlim(0, 1.35 * max(values))
     ax[0].invert_yaxis()
     ax[0].set_xlabel("CPU time per simulated second / the 120-link two-sprocket drive's")
@@ -293,7 +295,7 @@ def chart(res: dict, path) -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 

@@ -282,7 +282,7 @@ def _chart(results, sols, path):
     ax[2].set_title("same drive, three fidelities")
     ax[2].legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 

@@ -601,9 +601,9 @@ def _chart(res, path):
     a.set_xscale("log", base=2)
     a.set_xlabel("batch size (members)")
     a.set_ylabel("member-steps / s (warm)")
-    a.set_ylim(bottom=0)
+    a.set_ylim(0, 1.1 * a.get_ylim()[1])
     a.set_title("(a) throughput of one vmapped batch")
-    a.legend(fontsize=8)
+    a.legend(fontsize=8, loc="lower right")
 
     rows = res["waste"]["rows"]
     sp = [100 * r["spread"] for r in rows]
@@ -617,7 +617,7 @@ def _chart(res, path):
     a.set_xlabel("spread of speeds [± %]")
     a.set_ylabel("steps executed / steps needed")
     a.set_title(f"(b) waste ratio, {rows[0]['members']} members")
-    a.legend(fontsize=7)
+    a.legend(fontsize=8)
     a = ax[0, 2]
     for (key, label, _, _), st, ms in zip(WASTE_VARIANTS, styles, sizes, strict=True):
         a.plot(sp, [r[f"wall_{key}_s"] for r in rows], st, ms=ms, label=label)
@@ -625,7 +625,7 @@ def _chart(res, path):
     a.set_ylabel("wall time [s] (pilot included)")
     a.set_ylim(bottom=0)
     a.set_title("(b) wall time")
-    a.legend(fontsize=7)
+    a.legend(fontsize=8)
 
     a = ax[1, 0]
     runs = res["sharding"]["runs"]
@@ -637,6 +637,7 @@ def _chart(res, path):
             i, runs[k]["members_per_s"], f"waste {runs[k]['waste']:.2f}", ha="center", va="bottom"
         )
     a.set_ylabel("members / s")
+    a.set_ylim(0, 1.12 * max(runs[k]["members_per_s"] for k in keys))
     a.set_title(f"(c) sharding, {res['sharding']['members']} members, 4 forced host devices")
 
     a = ax[1, 1]
@@ -656,7 +657,7 @@ def _chart(res, path):
     a.axhline(g["target_grad_over_forward"] * g["forward_s"], color="grey", ls=":", label="target")
     a.set_ylabel("wall time [s]")
     a.set_title(
-        f"(d) ensemble gradient / forward: ×{g['grad_over_forward'] or math.nan:.2f} "
+        f"(d) ensemble gradient / forward:\n×{g['grad_over_forward'] or math.nan:.2f} "
         f"(default), ×{g['grad_over_forward_every_step_checkpointed']:.2f} (every step)"
     )
     a.legend(fontsize=8)
@@ -672,12 +673,13 @@ def _chart(res, path):
     a.axhline(TARGETS["compile_forward_s"], color="C0", ls=":", label="target forward")
     a.axhline(TARGETS["compile_gradient_s"], color="C1", ls=":", label="target gradient")
     a.set_ylabel("compile time [s]")
+    a.set_ylim(0, 1.1 * max([*vals, TARGETS["compile_forward_s"], TARGETS["compile_gradient_s"]]))
     a.set_title(f"(e) compile, {rows[0]['links']}-link drive")
     a.legend(fontsize=8)
     load = res["machine"]["loadavg"][0]
     fig.suptitle(f"jaxchain ensembles ({res['machine']['cpu_count']} CPU cores, load {load:.1f})")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 

@@ -192,7 +192,7 @@ def chart(results, path):
     ax[1].set_ylabel("wall time per revolution [s]")
     ax[1].set_title("cost (Tsit5, rtol 1e-6)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 

@@ -194,6 +194,7 @@ def chart(res: dict, path: Path) -> None:
     names = [r["name"] for r in rows]
     a.bar(names, [r["throughput"]["member_steps_per_s"] for r in rows], color="tab:blue")
     a.set_ylabel("member-steps per second (warm)")
+    a.set_ylim(0, 1.12 * max(r["throughput"]["member_steps_per_s"] for r in rows))
     a.set_title(f"(a) {res['members']}-member engagement ensemble")
     for i, r in enumerate(rows):
         a.annotate(
@@ -209,7 +210,7 @@ def chart(res: dict, path: Path) -> None:
         b.set_title(f"(b) design iteration; all-gather {two['design']['gather_ms_median']:.2f} ms")
     fig.suptitle(f"load before → after: {res['load_note']}", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 

@@ -720,7 +720,8 @@ def chart(results, path=None):
     x = np.arange(len(others))
     ax.bar(x - 0.2, [100 * r["bias"] for r in others], 0.4, label="bias (converged)")
     ax.bar(x + 0.2, [100 * r["adaptive"]["err"] for r in others], 0.4, label="Tsit5 1e-6")
-    ax.set_xticks(x, [f"{r['param']}\n{r['value']:.3g}" for r in others], fontsize=7)
+    ticks = ["\n".join([*r["param"].split("_"), f"{r['value']:.3g}"]) for r in others]
+    ax.set_xticks(x, ticks, fontsize=8)
     ax.set_ylabel("peak force vs nominal converged reference [%]")
     ax3 = ax.twinx()
     ax3.plot(x, [r["adaptive"]["steps"] for r in others], "k*", label="Tsit5 steps")
@@ -728,7 +729,7 @@ def chart(results, path=None):
     ax3.set_ylim(bottom=0)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax3.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower left")
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="lower left")
     ax.set_title("damping regularization: speed floor [m/s], no-pull clamp")
     ax.grid(True, axis="y", alpha=0.3)
 
@@ -748,9 +749,16 @@ def chart(results, path=None):
             mfc="none",
             label="nominal speed, tighter rtol" if i == 0 else None,
         )
-        for c in chk:
+        # one label per peak level: checks within 5 N of each other share it
+        levels = []
+        for c in sorted(chk, key=lambda c: c["window_peak_N"]):
+            if levels and c["window_peak_N"] - levels[-1][0] < 5.0:
+                levels[-1][1].append(f"{c['rtol']:.0e}")
+            else:
+                levels.append((c["window_peak_N"], [f"{c['rtol']:.0e}"]))
+        for peak, tols in levels:
             ax.annotate(
-                f"{c['rtol']:.0e}", (i + 0.1, c["window_peak_N"]), fontsize=6, xytext=(4, -2),
+                ", ".join(tols), (i + 0.1, peak), fontsize=8, xytext=(5, -3),
                 textcoords="offset points",
             )  # fmt: skip
         ax.annotate(
@@ -760,20 +768,20 @@ def chart(results, path=None):
             textcoords="offset points",
             xytext=(0, -26),
             ha="center",
-            fontsize=7,
+            fontsize=8,
         )
     jw = fid["joint_width"]["rows"]
     for r in jw:
         x = names.index("clearance") + 0.3
         ax.plot(x, r["window_peak_N"], "C3x", label="joint onset width" if r is jw[0] else None)
-        ax.annotate(f"{r['joint_width_m']:.0e} m", (x, r["window_peak_N"]), fontsize=6,
+        ax.annotate(f"{r['joint_width_m']:.0e} m", (x, r["window_peak_N"]), fontsize=8,
                     xytext=(4, -2), textcoords="offset points")  # fmt: skip
     ax.set_xticks(range(len(names)), names)
     ax.set_xlim(-0.6, len(names) - 0.3)
     ax.margins(y=0.3)
     ax.set_ylabel("peak roller/tooth force, later engagements [N]")
     ax.set_title(f"fidelity, from the layout (mean ± std; rtol {ADAPTIVE_RTOL:.0e})")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, axis="y", alpha=0.3)
 
     ax = axes[1, 2]
@@ -798,7 +806,7 @@ def chart(results, path=None):
     )
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=100)
+        fig.savefig(path, dpi=120)
     return fig
 
 

@@ -686,7 +686,7 @@ def chart(results, path=None):
         ax.set_xlabel("stiffness scale s (contact, links, anchors)")
         ax.set_ylabel("fixed step dt [s]")
         ax.set_title(f"{m}: stability map")
-        ax.legend(fontsize=7, loc="lower left")
+        ax.legend(fontsize=8, loc="lower left")
     # stability regions, with every mode's hλ at the measured boundary (scale 1)
     ax = ax_regions
     xs, ys = np.meshgrid(np.linspace(-4.2, 0.6, 400), np.linspace(-4, 4, 500))
@@ -712,7 +712,7 @@ def chart(results, path=None):
     ax.set_xlabel("Re(hλ)")
     ax.set_ylabel("Im(hλ)")
     ax.set_title(f"|R(z)| = 1; modes at the measured dt (s = {float(key):g})")
-    ax.legend(fontsize=7, loc="lower left")
+    ax.legend(fontsize=8, loc="lower left")
     ax.set_aspect("equal")
     # measured over predicted
     ax = ax_ratio
@@ -733,7 +733,7 @@ def chart(results, path=None):
     ax.set_xticks(np.arange(len(scales)) + 0.4 - width / 2, [f"s = {v:g}" for v in scales])
     ax.set_ylabel("measured / predicted step (growth ≤ 1e8 over horizon)")
     ax.set_title("measured boundary over the linearized prediction")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=8)
     if ax_gradient is not None:
         ax = ax_gradient
         k = [r["periods"] for r in g["rows"]]
@@ -750,10 +750,10 @@ def chart(results, path=None):
         ax.set_xlabel("horizon [tooth periods] (window: the last period)")
         ax.set_ylabel("gradient [N per unit u]")
         ax.set_title(f"soft-peak gradient vs horizon (fixed dt = {g['dt'] * 1e6:.0f} µs)")
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=8)
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=100)
+        fig.savefig(path, dpi=120)
     return fig
 
 

@@ -220,14 +220,14 @@ def chart(results, path):
             ax.set_title(f"{key}, t1 = {res['t1_s'] * 1e3:.2f} ms")
             ax.grid(True, which="both", alpha=0.3)
             if row == 0:
-                ax.legend(fontsize=7, ncol=2)
+                ax.legend(fontsize=8, ncol=2)
     fig.suptitle(
         f"work–precision, float64, {results['machine']['cpu_count']} CPU cores "
         f"(jax {results['machine']['versions']['jax']}, diffrax "
         f"{results['machine']['versions']['diffrax']})"
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=120)
     plt.close(fig)
 
 
