@@ -29,6 +29,7 @@ from ._scenes.layout import (
     transport_velocity as transport_velocity,
 )
 from ._scenes.loop import loop_layout as loop_layout
+from ._scenes.model import ChainModel as ChainModel
 from ._scenes.shoes import (
     POLYAMIDE as POLYAMIDE,
     SHOE_FRICTION as SHOE_FRICTION,
@@ -53,6 +54,7 @@ from ._solve.stack import stack as stack
 __all__ = [
     "BUSH_TOOTH_FRICTION",
     "CLEARANCE_JOINT_FRICTION",
+    "ChainModel",
     "DriveSpec",
     "Guide",
     "JOINT_FRICTION",

@@ -345,7 +345,7 @@ def test_drive_rings_press_on_the_side_facing_each_sprocket():
         assert 0.0 < depth[k].max() < 2e-4, depth[k].max()
     spec = jc.scenes.DriveSpec.of("08B", cushion=rings, settle=False, **kw)
     assert spec.sprockets[1].cushion is rings[1] and spec.sprockets[2].cushion is None
-    assert spec.arguments()["cushion"] == rings
+    assert spec.arguments()["model"].cushion == rings
     assert _ring(spec.build()).sides == (1, -1)
     with pytest.raises(ValueError, match="fidelity='lumped' or 'clearance'"):
         jc.scenes.drive("08B", fidelity="spans", cushion=rings, **kw)
@@ -353,9 +353,9 @@ def test_drive_rings_press_on_the_side_facing_each_sprocket():
 
 def test_strand_spec_carries_the_ring():
     s = jc.scenes.SprocketSpec(Z, load=None, cushion=RING)
-    assert jc.scenes.StrandSpec(sprocket=s).arguments()["cushion"] is RING
-    assert jc.scenes.StrandSpec(cushion=RING).arguments()["cushion"] is RING
-    assert jc.scenes.StrandSpec().arguments()["cushion"] is None
+    assert jc.scenes.StrandSpec(sprocket=s).arguments()["model"].cushion is RING
+    assert jc.scenes.StrandSpec(cushion=RING).arguments()["model"].cushion is RING
+    assert jc.scenes.StrandSpec().arguments()["model"].cushion is None
     with pytest.raises(ValueError, match="one of the two places"):
         jc.scenes.StrandSpec(sprocket=s, cushion=jc.elements.CushionRing(0.03))
     with pytest.raises(TypeError, match="CushionRing or None"):

@@ -3,9 +3,7 @@ sprockets (:mod:`.loop_drive`)."""
 
 from __future__ import annotations
 
-import inspect
 import math
-import numbers
 from collections.abc import Sequence
 from typing import Literal
 
@@ -13,14 +11,9 @@ import numpy as np
 
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
-from .._contact.base import AbstractContactLaw
-from .._contact.film_base import AbstractFilmLaw
-from .._contact.friction_base import AbstractFrictionLaw
-from .._elements.cushion import CushionContacts, CushionRing, as_cushions
+from .._elements.cushion import CushionContacts, as_cushions
 from .._loads import AbstractLoad
-from .._profiles.base import MAX_TEETH
-from .._profiles.freeform import FreeformProfile
-from .._profiles.iso import ToothProfile
+from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law, rollers_on_bush_of
 from .common import (
@@ -28,7 +21,6 @@ from .common import (
     as_load,
     as_profiles,
     check_below_strength,
-    check_common,
     check_load_ramp,
     contact_slots,
     disc_inertia,
@@ -37,6 +29,7 @@ from .common import (
 )
 from .layout import closed_drive_layout, transport_velocity
 from .loop_drive import loop_drive
+from .model import _DEFAULTS, ChainModel, DriveArgs, _is_default, model_of, rad_per_s
 from .shoes import Guide, Tensioner
 from .spans import spans_drive
 from .statics import equilibrate
@@ -56,26 +49,12 @@ def drive(
     speed_rpm: float = 1000.0,
     load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
     pretension: float = 200.0,
-    elongation: float = 0.0,
     fidelity: Literal["lumped", "clearance", "spans"] = "lumped",
-    form: Literal["min", "max", "mid"] = "mid",
-    profiles: Sequence[ToothProfile | FreeformProfile] | None = None,
-    restitution: float = 0.7,
-    friction: AbstractFrictionLaw | str | None = "default",
-    joint_friction: AbstractFrictionLaw | str | None = "default",
-    lubrication: AbstractFilmLaw | None = None,
-    driven_inertia: float | Sequence[float] | None = None,
-    load_ramp: float | None = None,
-    impact_speed: float = 1.0,
-    rollers_on_bush: Literal["joint", "lumped"] | None = None,
-    roller_contact: AbstractContactLaw | None = None,
-    settle: bool = True,
-    link_damping: float = 0.05,
+    profiles: Sequence[AbstractProfile] | None = None,
     tensioner: Tensioner | None = None,
     guides: Sequence[Guide] = (),
-    gravity: float | Sequence[float] | None = None,
-    shoe_contact: AbstractContactLaw | None = None,
-    cushion: Sequence[CushionRing | None] | None = None,
+    model: ChainModel | None = None,
+    **older,
 ) -> Scene:
     """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
     ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``; or,
@@ -130,10 +109,6 @@ def drive(
             every driven sprocket, or one per driven sprocket. The statics hold a load at its
             value at the start; a number is ramped in over ``load_ramp``.
         pretension: chain tension at rest [N], ≥ 0.
-        elongation: the chain's wear, 0–0.03: its pitch is p·(1 + elongation) while the
-            sprockets stay cut for p (ISO 606 tooth forms tolerate about 0.03). The worn
-            chain rides higher in the gaps and is longer: with ``n_links`` given, the
-            take-up moves out by what the longer loop needs.
         fidelity: "lumped" (rollers + elastic links), "clearance" (rigid links,
             pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
             spans as axial springs between the sprockets' pitch curves, for the drive's
@@ -141,84 +116,45 @@ def drive(
             frictionless circle the chain slides over, guides checked but without effect
             (they lie along the straight spans, which do not move across), no gravity; see
             :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
-        form: ISO 606 tooth form of every sprocket (ignored if ``profiles`` is given).
-        profiles: one tooth profile per sprocket (default ISO 606 of ``form``).
-        restitution: coefficient of restitution of every contact at ``impact_speed``.
-        friction: roller/tooth friction, any ``jc.contact.AbstractFrictionLaw``;
-            ``"default"``: a bush chain's ``jc.scenes.BUSH_TOOTH_FRICTION`` (Dahl, μ = 0.1),
-            none for a roller chain (its roller rolls); None: frictionless. A bush chain's
-            bush, fixed to its link, slides on the tooth: its slip includes the link's
-            rotation (``jaxchain._elements.rollers``). Lubricated steel is about μ = 0.1:
-            ``jc.contact.CoulombFriction(0.1, slip_velocity=1e-2)``, whose regularization
-            damps a light link's rotation with a time constant of microseconds (fine for
-            adaptive solves), or ``jc.contact.DahlFriction(0.1)``, whose pre-sliding state
-            (one per sprocket and roller, moving only under load) keeps fixed-step design
-            solves stable.
-        joint_friction: friction in the chain's joints (pin/bush, and bush/roller in the
-            clearance fidelity); ``"default"``: lubricated steel on steel, μ = 0.1
-            (``jc.scenes.JOINT_FRICTION`` in the lumped chain,
-            ``jc.scenes.CLEARANCE_JOINT_FRICTION``, with a pre-sliding state, in the
-            clearance chain); None: frictionless joints. It is what damps
-            the spans' transverse vibration: without it the spans' mean tension
-            climbs to several times the static (``python -m
-            benchmarks.archive.tension_climb``).
-        lubrication: an oil film in the clearance chain's pin/bush and bush/roller joints
-            (``jc.contact.OilFilm(viscosity=0.01)``: hot engine oil), beside their dry
-            contact, which still acts where the film breaks down; None: dry joints.
-            ``fidelity="clearance"`` only.
-        driven_inertia: [kg·m²], of every driven sprocket or one per driven sprocket;
-            default a steel disc of the pitch diameter.
-        impact_speed: reference impact speed of the history-free damping [m/s].
-        rollers_on_bush: clearance fidelity: roller as its own body on a clearance joint
-            ("joint") or fixed to its bush ("lumped"); None (default): the chain's own
-            model, "joint" for a roller chain; a bush chain (ISO 606 04C, 06C) has no
-            roller, its bush is part of its inner link ("lumped" means the same for it,
-            "joint" is refused).
-        roller_contact: roller/tooth law (default :func:`~jaxchain.scenes.roller_law`).
-        link_damping: damping ratio of the lumped links (0: undamped).
-        settle: start from the static equilibrium of the layout (see
-            :func:`~jaxchain.scenes.equilibrate`); False starts from the raw layout with
-            the load ramped in (default True).
+        profiles: one tooth profile per sprocket (default ISO 606 of ``model.form``).
         tensioner: a :class:`~jaxchain.scenes.Tensioner` on one span, or None.
         guides: fixed :class:`~jaxchain.scenes.Guide` shoes, each on a span (not the
             tensioner's).
-        gravity: None (none, the default), g [m/s²] ≥ 0 along −y, or (gx, gy) [m/s²]; the
-            settled start then hangs the chain under its weight.
-        shoe_contact: roller/shoe normal law of every tensioner shoe and guide (default
-            :func:`~jaxchain.scenes.shoe_law`: polyamide face).
-        cushion: cushion rings, one entry per sprocket in the order of ``teeth``, each a
-            :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>` or None
-            (e.g. ``(ring, None)``: a ring on the driver); None: no rings. The links'
-            plates press on them, in the settled start too. Not in ``"spans"``.
+        model: how the chain and its contacts are modelled, a
+            :class:`~jaxchain.scenes.ChainModel` (form, wear, restitution, friction, joint
+            friction, oil, contact laws, damping, gravity, settled start, load ramp, cushion
+            rings); default ``ChainModel()``.
+
+    Older keywords: each field of :class:`~jaxchain.scenes.ChainModel` is still taken as
+    a keyword (``restitution=0.5`` for ``model=ChainModel(restitution=0.5)``), and
+    ``driven_inertia`` [kg·m²], of every driven sprocket or one per driven sprocket
+    (default a steel disc of the pitch diameter; ``SprocketSpec.inertia`` in a
+    :class:`~jaxchain.scenes.DriveSpec`).
     """
-    chain = as_chain(chain)
-    elongation = checks.real(
-        "elongation", elongation, lo=0.0, hi=0.03, unit="(fraction of the pitch; 0.01 = 1 % wear)"
-    )
-    speed_rpm = check_common(
-        speed_rpm=speed_rpm,
-        fidelity=fidelity,
-        form=form,
-        restitution=restitution,
-        friction=friction,
-        joint_friction=joint_friction,
-        impact_speed=impact_speed,
-        rollers_on_bush=rollers_on_bush,
-        roller_contact=roller_contact,
-        settle=settle,
-        link_damping=link_damping,
-        lubrication=lubrication,
-    )
-    if fidelity == "spans":  # what only a chain of links and rollers uses: refused
+    driven_inertia = older.pop("driven_inertia", None)
+    m = model_of("drive", model, older)
+    a = DriveArgs(
+        chain=as_chain(chain), teeth=teeth, centres=centres, outside=outside,
+        take_up_sprocket=take_up_sprocket, centre_distance=centre_distance, n_links=n_links,
+        omega=rad_per_s(speed_rpm), load_torque=load_torque, pretension=pretension,
+        fidelity=fidelity, profiles=profiles, driven_inertia=driven_inertia,
+        tensioner=tensioner, guides=guides,
+    )  # fmt: skip
+    return build_drive(a, m)
+
+
+def build_drive(a: DriveArgs, m: ChainModel) -> Scene:
+    """The drive ``a`` modelled by ``m`` (what :func:`drive` and
+    :meth:`~jaxchain.scenes.DriveSpec.build` build)."""
+    m.check_fidelity(a.fidelity)
+    if a.fidelity == "spans":  # what only a chain of links and rollers uses: refused
         given = [
             name
-            for name, value in (
-                ("restitution", restitution), ("friction", friction),
-                ("joint_friction", joint_friction), ("impact_speed", impact_speed),
-                ("rollers_on_bush", rollers_on_bush), ("roller_contact", roller_contact),
-                ("settle", settle), ("shoe_contact", shoe_contact),
+            for name in (
+                "restitution", "friction", "joint_friction", "impact_speed",
+                "rollers_on_bush", "roller_contact", "settle", "shoe_contact",
             )
-            if not _is_default(name, value)
+            if not _is_default(getattr(m, name), _DEFAULTS[name])
         ]  # fmt: skip
         if given:
             raise ValueError(
@@ -227,34 +163,22 @@ def drive(
                 "pitch curves, its start always settled, its shoes frictionless circles): "
                 "leave them at their defaults, or use fidelity='lumped' or 'clearance'"
             )
-    gravity = as_gravity(gravity)
-    rollers_on_bush = rollers_on_bush_of(chain, rollers_on_bush)
-    if cushion is not None and fidelity == "spans":
-        raise ValueError(
-            "cushion: fidelity='spans' has no links for a cushion ring's plates to press on; "
-            "use fidelity='lumped' or 'clearance' with cushion rings (or cushion=None)"
-        )
-    if fidelity == "spans":
-        return _spans(
-            chain, teeth, centres, centre_distance, outside, take_up_sprocket, n_links,
-            speed_rpm, load_torque, pretension, elongation, form, profiles, driven_inertia,
-            load_ramp, link_damping, tensioner, guides, gravity,
-        )  # fmt: skip
-    if shoe_contact is not None:
-        checks.instance(
-            "shoe_contact", shoe_contact, AbstractContactLaw,
-            "a normal contact law (jc.contact.Flores, ...) or None",
-        )  # fmt: skip
+        if m.cushion is not None:
+            raise ValueError(
+                "cushion: fidelity='spans' has no links for a cushion ring's plates to press "
+                "on; use fidelity='lumped' or 'clearance' with cushion rings (or cushion=None)"
+            )
+        return _spans(a, m)
+    chain, teeth, centres, fidelity = a.chain, a.teeth, a.centres, a.fidelity
+    tensioner, guides, pretension = a.tensioner, a.guides, a.pretension
+    centre_distance, n_links, load_torque = a.centre_distance, a.n_links, a.load_torque
+    settle, load_ramp, profiles = m.settle, m.load_ramp, a.profiles
+    gravity = as_gravity(m.gravity)
+    rollers_on_bush = rollers_on_bush_of(chain, m.rollers_on_bush)
     if tensioner is not None and not isinstance(tensioner, Tensioner):
         raise TypeError(f"tensioner must be a jc.scenes.Tensioner or None, got {tensioner!r}")
     if isinstance(guides, Guide):  # one guide, as the loop's builder takes it
         guides = (guides,)
-    with_shoes = {
-        "tensioner": tensioner,
-        "guides": guides,
-        "gravity": gravity,
-        "shoe_contact": shoe_contact,
-    }
     if centres is None and (tensioner is not None or (guides is not None and len(guides))):
         if n_links is not None and centre_distance is None:
             raise ValueError(
@@ -272,34 +196,10 @@ def drive(
                 "on the x axis), not both"
             )
         return loop_drive(
-            chain,
-            teeth,
-            centres,
-            outside=outside,
-            take_up_sprocket=take_up_sprocket,
-            n_links=n_links,
-            speed_rpm=speed_rpm,
-            load_torque=load_torque,
-            pretension=pretension,
-            fidelity=fidelity,
-            form=form,
-            profiles=profiles,
-            restitution=restitution,
-            friction=friction,
-            joint_friction=joint_friction,
-            lubrication=lubrication,
-            driven_inertia=driven_inertia,
-            load_ramp=load_ramp,
-            impact_speed=impact_speed,
-            rollers_on_bush=rollers_on_bush,
-            roller_contact=roller_contact,
-            settle=settle,
-            link_damping=link_damping,
-            elongation=elongation,
-            cushion=cushion,
-            **with_shoes,
+            a._replace(centres=centres, centre_distance=None, teeth=teeth, guides=guides),
+            m.replace(rollers_on_bush=rollers_on_bush, gravity=gravity),
         )
-    given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
+    given = {"outside": np.size(a.outside) > 0, "take_up_sprocket": a.take_up_sprocket is not None}
     for name, value in given.items():
         if value:
             raise ValueError(
@@ -317,8 +217,8 @@ def drive(
     z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
     for k, z in enumerate((z1, z2)):
         checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
-    rings = as_cushions(cushion, 2)
-    load, load_torque = as_load("load_torque", load_torque, speed_rpm * math.pi / 30 * z1 / z2)
+    rings = as_cushions(m.cushion, 2)
+    load, load_torque = as_load("load_torque", load_torque, a.omega * z1 / z2)
     check_load_ramp((load,), load_ramp)
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     if centre_distance is not None:
@@ -327,7 +227,7 @@ def drive(
         )
     if load_ramp is not None:
         load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
-    profiles = as_profiles(chain, profiles, (z1, z2), form)
+    profiles = as_profiles(chain, profiles, (z1, z2), m.form)
     check_below_strength(
         chain,
         "the tight span's static tension pretension + load_torque/R2",
@@ -337,7 +237,7 @@ def drive(
     if centre_distance is None and n_links is None:
         centre_distance = 40 * chain.pitch
     pitch = chain.pitch  # the sprockets are cut for the unworn pitch
-    chain = worn(chain, elongation)
+    chain = worn(chain, m.elongation)
     stretch = stretch_of(chain, fidelity, pretension)
     lay = closed_drive_layout(
         pitch,
@@ -361,7 +261,7 @@ def drive(
                 f"pretension >= {carried / (2 * cos_b):.4g} N, a smaller load_torque, or "
                 "settle=False (start from the layout, load ramped in)"
             )
-    omega1 = speed_rpm * 2 * math.pi / 60
+    omega1 = a.omega
     vel = transport_velocity(lay, omega1, z1, z2)
     bodies = chain_bodies(
         chain,
@@ -369,13 +269,14 @@ def drive(
         vel,
         closed=True,
         fidelity=fidelity,
-        restitution=restitution,
+        restitution=m.restitution,
         rollers_on_bush=rollers_on_bush,
-        damping_ratio=link_damping,
-        joint_friction=joint_friction,
-        lubrication=lubrication,
+        damping_ratio=m.link_damping,
+        joint_friction=m.joint_friction,
+        lubrication=m.lubrication,
         link_load=pretension + load_torque / float(profiles[1].pitch_radius),
     )
+    driven_inertia = a.driven_inertia
     if driven_inertia is None:
         driven_inertia = disc_inertia(chain, profiles[1])
     checks.real("driven_inertia", driven_inertia, lo=0.0, lo_open=True, unit="kg·m²")
@@ -406,9 +307,9 @@ def drive(
         bodies,
         sprockets=sprockets,
         anchors=None,
-        roller_contact=roller_contact or roller_law(chain, restitution),
-        friction=friction,
-        impact_speed=impact_speed,
+        roller_contact=m.roller_contact or roller_law(chain, m.restitution),
+        friction=m.friction,
+        impact_speed=m.impact_speed,
         fidelity=fidelity,
         tensile_strength=chain.tensile_strength,
         gravity=gravity,
@@ -417,16 +318,12 @@ def drive(
     return equilibrate(scene, take_up=2 * pretension) if settle else scene
 
 
-def _spans(
-    chain, teeth, centres, centre_distance, outside, take_up_sprocket, n_links, speed_rpm,
-    load_torque, pretension, elongation, form, profiles, driven_inertia, load_ramp,
-    link_damping, tensioner, guides, gravity,
-) -> Scene:  # fmt: skip
+def _spans(a: DriveArgs, m: ChainModel) -> Scene:
     """``fidelity="spans"``: what it models, checked, then :func:`.spans.spans_drive`."""
     unsupported = {
-        "gravity": gravity is not None,
-        "elongation": elongation != 0.0,
-        "n_links without a tensioner": n_links is not None and tensioner is None,
+        "gravity": m.gravity is not None,
+        "elongation": m.elongation != 0.0,
+        "n_links without a tensioner": a.n_links is not None and a.tensioner is None,
     }
     given = [name for name, is_given in unsupported.items() if is_given]
     if given:
@@ -435,38 +332,26 @@ def _spans(
             "fixed sprocket axes and massless spans whose length follows from the axes (give "
             "centre_distance or centres); use fidelity='lumped' for them"
         )
+    teeth, centres = a.teeth, a.centres
     if centres is None:
-        given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
+        given = {
+            "outside": np.size(a.outside) > 0,
+            "take_up_sprocket": a.take_up_sprocket is not None,
+        }
         for name, value in given.items():
             if value:
                 raise ValueError(
                     f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
                 )
         z = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
-        c = 40 * chain.pitch if centre_distance is None else centre_distance
+        c = 40 * a.chain.pitch if a.centre_distance is None else a.centre_distance
         c = checks.real("centre_distance", c, lo=0.0, lo_open=True, unit="m")
         centres, teeth = ((0.0, 0.0), (c, 0.0)), tuple(z)
-    elif centre_distance is not None:
+    elif a.centre_distance is not None:
         raise ValueError(
             "give centres (the axes of every sprocket) or centre_distance (two sprockets on "
             "the x axis), not both"
         )
     if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
         raise TypeError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
-    return spans_drive(
-        chain, tuple(teeth), centres, outside=outside, take_up_sprocket=take_up_sprocket,
-        speed_rpm=speed_rpm, load_torque=load_torque, pretension=pretension, form=form,
-        profiles=profiles, driven_inertia=driven_inertia, load_ramp=load_ramp,
-        link_damping=link_damping, tensioner=tensioner, n_links=n_links, guides=guides,
-    )  # fmt: skip
-
-
-def _is_default(name: str, value) -> bool:
-    """Whether ``value`` is :func:`drive`'s default for argument ``name``."""
-    default = inspect.signature(drive).parameters[name].default
-    if value is default:
-        return True
-    numeric = (numbers.Real,)
-    if isinstance(value, bool) or isinstance(default, bool) or isinstance(default, str):
-        return type(value) is type(default) and value == default
-    return isinstance(value, numeric) and isinstance(default, numeric) and value == default
+    return spans_drive(a._replace(teeth=tuple(teeth), centres=centres), m)

@@ -10,9 +10,6 @@ import numpy as np
 
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
-from .._contact.base import AbstractContactLaw
-from .._contact.film_base import AbstractFilmLaw
-from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.cushion import CushionContacts, CushionRing
 from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._profiles.iso import ToothProfile
@@ -27,7 +24,6 @@ from .build import (
 from .common import (
     as_gravity,
     check_below_strength,
-    check_common,
     check_profile,
     contact_slots,
     disc_inertia,
@@ -35,6 +31,7 @@ from .common import (
     worn,
 )
 from .layout import strand_layout
+from .model import ChainModel, model_of, rad_per_s
 from .statics import equilibrate
 
 __all__ = ["engagement"]
@@ -51,21 +48,10 @@ def engagement(
     n_entry: int = 8,
     n_exit: int = 4,
     fidelity: Literal["lumped", "clearance"] = "lumped",
-    form: Literal["min", "max", "mid"] = "mid",
-    profile: ToothProfile | None = None,
-    restitution: float = 0.7,
-    friction: AbstractFrictionLaw | str | None = "default",
-    joint_friction: AbstractFrictionLaw | str | None = "default",
-    lubrication: AbstractFilmLaw | None = None,
-    impact_speed: float = 1.0,
-    rollers_on_bush: Literal["joint", "lumped"] | None = None,
-    roller_contact: AbstractContactLaw | None = None,
-    settle: bool = True,
-    link_damping: float = 0.05,
+    profile: AbstractProfile | None = None,
     span_stiffness: float | None = None,
-    elongation: float = 0.0,
-    gravity: float | tuple[float, float] | None = None,
-    cushion: CushionRing | None = None,
+    model: ChainModel | None = None,
+    **older,
 ) -> Scene:
     """The meshing-impact scene used for design: a driver sprocket turning counter-clockwise
     at ``speed_rpm`` draws an open chain strand in from a tight entry span (held at
@@ -81,36 +67,24 @@ def engagement(
     With ``settle`` (default) the strand starts from its static equilibrium on the held
     sprocket (:func:`~jaxchain.scenes.equilibrate`); False starts from the layout.
 
-    ``elongation`` is the chain's wear: its pitch is p·(1 + elongation) while the
-    sprocket stays cut for p (0–0.03; ISO 606 tooth forms tolerate about 0.03). A worn
+    ``model`` (a :class:`~jaxchain.scenes.ChainModel`, default ``ChainModel()``) sets how
+    the chain and its contacts are modelled, as in :func:`~jaxchain.scenes.drive`; its
+    fields are still taken as keywords. Its ``elongation`` is the chain's wear: a worn
     chain rides higher in the gaps, the more so the further a roller is along the wrap.
-    ``gravity``: None (none, the default), g [m/s²] ≥ 0 along −y, or (gx, gy) [m/s²].
-    ``cushion``: a :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>` on the
-    sprocket (None: none); its link plates press on it, in the settled start too (08B on 18
-    teeth: seated plate edges at ≈ 30.1 mm from the axis).
-    Other arguments as in :func:`~jaxchain.scenes.drive`.
+    Its ``cushion`` is one :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>`
+    on the sprocket (or None); its link plates press on it, in the settled start too (08B
+    on 18 teeth: seated plate edges at ≈ 30.1 mm from the axis); a drive's ``load_ramp``
+    and ``shoe_contact`` are not used. Other arguments as in
+    :func:`~jaxchain.scenes.drive`.
     """
+    m = model_of("engagement", model, older)
+    omega = rad_per_s(speed_rpm)
     chain = as_chain(chain)
-    gravity = as_gravity(gravity)
-    elongation = checks.real(
-        "elongation", elongation, lo=0.0, hi=0.03, unit="(fraction of the pitch; 0.01 = 1 % wear)"
-    )
+    gravity = as_gravity(m.gravity)
     checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
-    speed_rpm = check_common(
-        speed_rpm=speed_rpm,
-        fidelity=fidelity,
-        form=form,
-        restitution=restitution,
-        friction=friction,
-        joint_friction=joint_friction,
-        impact_speed=impact_speed,
-        rollers_on_bush=rollers_on_bush,
-        roller_contact=roller_contact,
-        settle=settle,
-        link_damping=link_damping,
-        lubrication=lubrication,
-    )
-    rollers_on_bush = rollers_on_bush_of(chain, rollers_on_bush)
+    m.check_fidelity(fidelity)
+    cushion, restitution = m.cushion, m.restitution
+    rollers_on_bush = rollers_on_bush_of(chain, m.rollers_on_bush)
     if cushion is not None and not isinstance(cushion, CushionRing):
         raise TypeError(
             f"cushion must be a jc.elements.CushionRing or None, got {type(cushion).__name__} "
@@ -130,7 +104,7 @@ def engagement(
     if span_stiffness is not None:
         checks.real("span_stiffness", span_stiffness, lo=0.0, lo_open=True, unit="N/m")
     if profile is None:
-        profile = ToothProfile.iso606(chain, teeth, form)
+        profile = ToothProfile.iso606(chain, teeth, m.form)
     checks.instance(
         "profile", profile, AbstractProfile,
         "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile) or None",
@@ -141,7 +115,7 @@ def engagement(
     if wrap is None:
         wrap = teeth // 2
     sprocket_chain = chain  # the sprocket is cut for the unworn pitch
-    chain = worn(chain, elongation)
+    chain = worn(chain, m.elongation)
     if fidelity == "clearance" and (wrap + n_entry + n_exit) % 2:
         n_exit += 1  # the clearance strand needs an even roller count
     lay = strand_layout(
@@ -152,7 +126,6 @@ def engagement(
         n_exit=n_exit,
         link_pitch=chain.pitch + stretch_of(chain, fidelity, tension),
     )
-    omega = speed_rpm * 2 * math.pi / 60
     rollers = np.asarray(lay.rollers)
     # rigid transport: seated rollers turn with the sprocket; each span translates at the
     # speed of its seated end roller, along the span
@@ -178,9 +151,9 @@ def engagement(
         fidelity=fidelity,
         restitution=restitution,
         rollers_on_bush=rollers_on_bush,
-        damping_ratio=link_damping,
-        joint_friction=joint_friction,
-        lubrication=lubrication,
+        damping_ratio=m.link_damping,
+        joint_friction=m.joint_friction,
+        lubrication=m.lubrication,
         link_load=tension,
     )
     k_span = link_stiffness(chain, tension) / 50 if span_stiffness is None else span_stiffness
@@ -207,9 +180,9 @@ def engagement(
         bodies,
         sprockets=(sprocket,),
         anchors=anchors,
-        roller_contact=roller_contact or roller_law(sprocket_chain, restitution),
-        friction=friction,
-        impact_speed=impact_speed,
+        roller_contact=m.roller_contact or roller_law(sprocket_chain, restitution),
+        friction=m.friction,
+        impact_speed=m.impact_speed,
         fidelity=fidelity,
         tensile_strength=sprocket_chain.tensile_strength,
         # one entry roller meshes per tooth period: the strand runs out after n_entry
@@ -217,4 +190,4 @@ def engagement(
         gravity=gravity,
     )
     scene = CushionContacts.attach(scene, (cushion,), chain)
-    return equilibrate(scene) if settle else scene
+    return equilibrate(scene) if m.settle else scene

@@ -9,10 +9,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec
-from .._contact.base import AbstractContactLaw
-from .._contact.film_base import AbstractFilmLaw
-from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.cushion import CushionContacts, as_cushions
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
@@ -30,6 +26,7 @@ from .common import (
 )
 from .layout import chain_pitch_radius, transport_velocity
 from .loop import Circles, as_centres, as_outside, loop_layout
+from .model import ChainModel, DriveArgs
 from .shoes import (
     Guide,
     Tensioner,
@@ -125,39 +122,13 @@ def tensioned_layout(pitch, lp, r_roller, teeth, centres, outside, profiles, n_l
     return lay, real, iv, span_length
 
 
-def loop_drive(
-    chain: ChainSpec,
-    teeth,
-    centres,
-    *,
-    outside: Sequence[int],
-    take_up_sprocket: int | None,
-    n_links: int | None,
-    speed_rpm: float,
-    load_torque,
-    pretension: float,
-    fidelity: str,
-    form: str,
-    profiles,
-    restitution: float,
-    friction: AbstractFrictionLaw | str | None,
-    joint_friction: AbstractFrictionLaw | str | None,
-    lubrication: AbstractFilmLaw | None = None,
-    driven_inertia,
-    load_ramp: float | None,
-    impact_speed: float,
-    rollers_on_bush: str,
-    roller_contact: AbstractContactLaw | None,
-    settle: bool,
-    link_damping: float,
-    tensioner: Tensioner | None = None,
-    guides: Sequence[Guide] = (),
-    gravity=None,
-    shoe_contact: AbstractContactLaw | None = None,
-    elongation: float = 0.0,
-    cushion=None,
-) -> Scene:
-    """The drive over N sprockets (see :func:`~jaxchain.scenes.drive`)."""
+def loop_drive(a: DriveArgs, model: ChainModel) -> Scene:
+    """The drive over N sprockets (see :func:`~jaxchain.scenes.drive`): ``a`` with its
+    ``centres``, modelled by ``model``."""
+    chain, teeth, centres, fidelity = a.chain, a.teeth, a.centres, a.fidelity
+    outside, take_up_sprocket, n_links = a.outside, a.take_up_sprocket, a.n_links
+    load_torque, pretension, profiles = a.load_torque, a.pretension, a.profiles
+    tensioner, guides, settle, load_ramp = a.tensioner, a.guides, model.settle, model.load_ramp
     if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
         raise TypeError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
     n = len(teeth)
@@ -165,15 +136,15 @@ def loop_drive(
         raise ValueError(f"teeth must hold at least 2 tooth counts (driver first), got {n}")
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
     centres = as_centres(centres, n)
-    rings = as_cushions(cushion, n)
-    speeds = [speed_rpm * math.pi / 30 * teeth[0] / z for z in teeth[1:]]
+    rings = as_cushions(model.cushion, n)
+    speeds = [a.omega * teeth[0] / z for z in teeth[1:]]
     driven_loads, held = as_loads("load_torque", load_torque, speeds)
     check_load_ramp(driven_loads, load_ramp)
     loads = (0.0, *held)  # the torques the statics hold at the start [N·m]
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
     if load_ramp is not None:
         load_ramp = checks.real("load_ramp", load_ramp, lo=0.0, unit="s")
-    profiles = as_profiles(chain, profiles, teeth, form)
+    profiles = as_profiles(chain, profiles, teeth, model.form)
     radii = [float(p.pitch_radius) for p in profiles]
     guides = as_guides(guides, n, tensioner)
     if tensioner is not None:
@@ -213,26 +184,26 @@ def loop_drive(
             "on span 0), or settle=False (start from the layout, load ramped in)"
         )
     pitch = chain.pitch  # the sprockets are cut for the unworn pitch
-    chain = worn(chain, elongation)
+    chain = worn(chain, model.elongation)
     stretch = stretch_of(chain, fidelity, pretension)
     lp = chain.pitch + stretch
     r_roller = chain.roller_diameter / 2
     lay, real, iv, span_length = tensioned_layout(
         pitch, lp, r_roller, teeth, centres, outside, profiles, n_links, m, tensioner
     )
-    inertias = sprocket_inertias(chain, profiles, driven_inertia)
-    omega1 = speed_rpm * 2 * math.pi / 60
+    inertias = sprocket_inertias(chain, profiles, a.driven_inertia)
+    omega1 = a.omega
     bodies = chain_bodies(
         chain,
         lay.rollers,
         transport_velocity(lay, omega1),
         closed=True,
         fidelity=fidelity,
-        restitution=restitution,
-        rollers_on_bush=rollers_on_bush,
-        damping_ratio=link_damping,
-        joint_friction=joint_friction,
-        lubrication=lubrication,
+        restitution=model.restitution,
+        rollers_on_bush=model.rollers_on_bush,
+        damping_ratio=model.link_damping,
+        joint_friction=model.joint_friction,
+        lubrication=model.lubrication,
         link_load=float(tension.max()),
     )
     if load_ramp is None:  # a settled start carries the full load already
@@ -261,7 +232,7 @@ def loop_drive(
         placed.append(place_guide(g, *span_ends(lay, real[g.span]), chain))
     shoes = None
     if placed:
-        law = shoe_contact or shoe_law(chain, restitution)
+        law = model.shoe_contact or shoe_law(chain, model.restitution)
         shoes = assemble_shoes(
             placed, 0 if arms is None else 1, law, lp, lay.rollers[:, :2], r_roller
         )
@@ -269,12 +240,12 @@ def loop_drive(
         bodies,
         sprockets=sprockets,
         anchors=None,
-        roller_contact=roller_contact or roller_law(chain, restitution),
-        friction=friction,
-        impact_speed=impact_speed,
+        roller_contact=model.roller_contact or roller_law(chain, model.restitution),
+        friction=model.friction,
+        impact_speed=model.impact_speed,
         fidelity=fidelity,
         tensile_strength=chain.tensile_strength,
-        gravity=gravity,
+        gravity=model.gravity,
         tensioners=arms,
         shoes=shoes,
     )

@@ -14,7 +14,6 @@ import numpy as np
 from jax.typing import ArrayLike
 
 from .. import _checks as checks
-from .._chain import ChainSpec
 from .._elements.spans import Spans, pitch_curve_coefficients, scaled_curve
 from .._kinematics import tangent_normal
 from .._loads import AbstractLoad
@@ -24,7 +23,8 @@ from .build import link_stiffness, roller_law
 from .common import as_loads, as_profiles, check_load_ramp, sprocket_inertias, stretch_of
 from .loop import as_centres, as_outside
 from .loop_drive import as_guides, span_tensions, tensioned_layout, tensioner_tensions
-from .shoes import Tensioner, place_tensioner
+from .model import ChainModel, DriveArgs
+from .shoes import place_tensioner
 
 __all__ = ["spans_drive", "span_element", "SpanShoe", "SPAN_ORDER"]
 
@@ -123,25 +123,7 @@ def span_element(
 _span_element = eqx.filter_jit(span_element)
 
 
-def spans_drive(
-    chain: ChainSpec,
-    teeth,
-    centres,
-    *,
-    outside,
-    take_up_sprocket: int | None,
-    speed_rpm: float,
-    load_torque,
-    pretension: float,
-    form: str,
-    profiles,
-    driven_inertia,
-    load_ramp: float | None,
-    link_damping: float,
-    tensioner: Tensioner | None = None,
-    n_links: int | None = None,
-    guides=(),
-) -> Scene:
+def spans_drive(a: DriveArgs, model: ChainModel) -> Scene:
     """The span-level drive over N sprockets (see :func:`~jaxchain.scenes.drive`): the
     sprockets at ``centres`` (the driver first, the loop counter-clockwise, ``outside``
     ones on the chain's back), the spans' start tensions those of the statics with
@@ -150,6 +132,10 @@ def spans_drive(
     as the lumped chain checks them and change nothing: a guide's face lies along its
     straight span (at the rollers or ``offset`` beyond), and the span model's spans do not
     move across to meet it."""
+    chain, teeth, centres, outside = a.chain, a.teeth, a.centres, a.outside
+    take_up_sprocket, load_torque, pretension = a.take_up_sprocket, a.load_torque, a.pretension
+    profiles, tensioner, n_links, guides = a.profiles, a.tensioner, a.n_links, a.guides
+    load_ramp = model.load_ramp
     n = len(teeth)
     teeth = tuple(checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth))
     centres = as_centres(centres, n)
@@ -167,11 +153,11 @@ def spans_drive(
         if take_up_sprocket is None
         else checks.integer("take_up_sprocket", take_up_sprocket, lo=1, hi=n - 1)
     )
-    speeds = [speed_rpm * math.pi / 30 * teeth[0] / z for z in teeth[1:]]
+    speeds = [a.omega * teeth[0] / z for z in teeth[1:]]
     driven_loads, held = as_loads("load_torque", load_torque, speeds)
     check_load_ramp(driven_loads, load_ramp)
     pretension = checks.real("pretension", pretension, lo=0.0, unit="N")
-    profiles = as_profiles(chain, profiles, teeth, form)
+    profiles = as_profiles(chain, profiles, teeth, model.form)
     radii = [p.teeth * float(p.pitch) / (2 * math.pi) for p in profiles]  # z·p/2π
     if tensioner is None:
         tension = span_tensions((0.0, *held), radii, pretension, m)
@@ -184,8 +170,8 @@ def spans_drive(
             f"no static equilibrium: a span would carry {tension.min():.4g} N (the loads need "
             "more tension than pretension gives); raise pretension or lower load_torque"
         )
-    inertias = sprocket_inertias(chain, profiles, driven_inertia)
-    omega1 = speed_rpm * 2 * math.pi / 60
+    inertias = sprocket_inertias(chain, profiles, a.driven_inertia)
+    omega1 = a.omega
     if load_ramp is None:
         load_ramp = 0.0  # the spans start with the statics' tensions
     sprockets = tuple(
@@ -213,7 +199,7 @@ def spans_drive(
                 )
     k_link = link_stiffness(chain, float(tension.max()))
     m_link = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
-    c_link = 2 * link_damping * math.sqrt(k_link * m_link / 2)
+    c_link = 2 * model.link_damping * math.sqrt(k_link * m_link / 2)
     shoe = arms = None
     if tensioner is not None:
         shoe, arms = _place_shoe(

@@ -28,6 +28,7 @@ from .._scene import Scene
 from .common import disc_inertia
 from .drive import drive
 from .engagement import engagement
+from .model import MODEL_FIELDS, ChainModel
 from .shoes import Guide, Tensioner
 
 __all__ = ["SprocketSpec", "DriveSpec", "StrandSpec"]
@@ -125,11 +126,20 @@ class _ChainModel:
         """A copy with ``changes`` (field=value)."""
         return dataclasses.replace(self, **changes)
 
-    def _model(self) -> dict:
+    @property
+    def model(self) -> ChainModel:
+        """How the spec models the chain: its :class:`ChainModel` fields as one object."""
+        fields = {name: getattr(self, name) for name in MODEL_FIELDS if hasattr(self, name)}
+        return ChainModel(**fields)
+
+    def _model(self, **model) -> dict:
+        """The builders' keywords the chain model sets: chain, speed, fidelity and the
+        :attr:`model` (with ``model``'s fields changed)."""
         return {
-            f.name: getattr(self, f.name)
-            for f in dataclasses.fields(_ChainModel)
-            if f.name != "elements"
+            "chain": self.chain,
+            "speed_rpm": self.speed_rpm,
+            "fidelity": self.fidelity,
+            "model": self.model.replace(**model) if model else self.model,
         }
 
     def _with_elements(self, scene: Scene) -> Scene:
@@ -215,16 +225,15 @@ class DriveSpec(_ChainModel):
         """The keyword arguments of :func:`~jaxchain.scenes.drive` this spec stands for."""
         sp, driven = self.sprockets, self.sprockets[1:]
         placed = sp[0].centre is not None
-        args = self._model()
+        rings = tuple(s.cushion for s in sp)
+        args = self._model(cushion=rings) if any(r is not None for r in rings) else self._model()
         args.update(
             teeth=tuple(s.teeth for s in sp),
             pretension=self.pretension,
             centre_distance=self.centre_distance,
             n_links=self.n_links,
-            load_ramp=self.load_ramp,
             tensioner=self.tensioner,
             guides=self.guides,
-            shoe_contact=self.shoe_contact,
             load_torque=tuple(s.load for s in driven) if len(driven) > 1 else driven[0].load,
         )
         if placed:
@@ -234,8 +243,6 @@ class DriveSpec(_ChainModel):
         elif any(s.outside for s in sp) or self.take_up_sprocket is not None:
             args["outside"] = tuple(k for k, s in enumerate(sp) if s.outside)
             args["take_up_sprocket"] = self.take_up_sprocket  # refused there: needs centres
-        if any(s.cushion is not None for s in sp):
-            args["cushion"] = tuple(s.cushion for s in sp)
         if any(s.profile is not None for s in sp):
             chain = as_chain(self.chain)
             args["profiles"] = tuple(
@@ -389,7 +396,8 @@ class StrandSpec(_ChainModel):
     def arguments(self) -> dict:
         """The keyword arguments of :func:`~jaxchain.scenes.engagement` this spec stands
         for."""
-        args = self._model()
+        ring = self.cushion if self.cushion is not None else self.sprocket.cushion
+        args = self._model(cushion=ring)
         args.update(
             teeth=self.sprocket.teeth,
             profile=self.sprocket.profile,
@@ -399,7 +407,6 @@ class StrandSpec(_ChainModel):
             n_entry=self.n_entry,
             n_exit=self.n_exit,
             span_stiffness=self.span_stiffness,
-            cushion=self.cushion if self.cushion is not None else self.sprocket.cushion,
         )
         return args
 
