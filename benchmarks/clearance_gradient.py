@@ -128,10 +128,15 @@ def strand(model: str, n_entry: int, u=U0) -> jc.Scene:
     if roller_width is not None:
         law = jc.scenes.roller_law(jc.ChainSpec.iso606(CHAIN), 0.7, width=roller_width)
     scene = jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=RPM, tension=TENSION, n_entry=n_entry, fidelity=fidelity,
-        profile=SPACE.profile(jnp.asarray(u, dtype=float)), roller_contact=law,
-        settle=joint_width is None,
-    )  # fmt: skip
+        CHAIN,
+        Z,
+        speed_rpm=RPM,
+        tension=TENSION,
+        n_entry=n_entry,
+        fidelity=fidelity,
+        profile=SPACE.profile(jnp.asarray(u, dtype=float)),
+        model=jc.scenes.ChainModel(roller_contact=law, settle=joint_width is None),
+    )
     if joint_width is None:
         return scene
     pairs = tuple(

@@ -73,9 +73,15 @@ def build(
     """The study's engagement for ``profile`` (the design model's contact law and joint
     friction unless given)."""
     return jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=RPM, profile=profile, n_entry=n_entry,
-        roller_contact=roller_contact, joint_friction=joint_friction, settle=settle,
-    )  # fmt: skip
+        CHAIN,
+        Z,
+        speed_rpm=RPM,
+        profile=profile,
+        n_entry=n_entry,
+        model=jc.scenes.ChainModel(
+            roller_contact=roller_contact, joint_friction=joint_friction, settle=settle
+        ),
+    )
 
 
 def _best(f, repeats: int) -> float:

@@ -115,8 +115,7 @@ def builder(scene: str, slip=2e-2, periods: int = 2):
         speed_rpm=RPM,
         profile=p,
         n_entry=periods + 1,
-        roller_contact=law,
-        joint_friction=joints(slip),
+        model=jc.scenes.ChainModel(roller_contact=law, joint_friction=joints(slip)),
     )
 
 

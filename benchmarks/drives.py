@@ -88,7 +88,9 @@ def build(name: str, fidelity: str = "lumped", settle: bool = True):
         kw = dict(teeth=(21, 42), n_links=int(name[4:]))
     else:
         kw = BY_SPROCKETS[int(name.split("_")[1])]
-    return jc.scenes.drive(CHAIN, **{**COMMON, **kw}, fidelity=fidelity, settle=settle)
+    return jc.scenes.drive(
+        CHAIN, **{**COMMON, **kw}, fidelity=fidelity, model=jc.scenes.ChainModel(settle=settle)
+    )
 
 
 def load() -> float:

@@ -90,7 +90,12 @@ def compile_times(fidelities, links=(50, 100, 200)):
     for fid in fidelities:
         for n in links:
             sc = jc.scenes.drive(
-                "08B", teeth=(18, 36), n_links=n, fidelity=fid, settle=False, **FRICTIONLESS
+                "08B",
+                teeth=(18, 36),
+                n_links=n,
+                fidelity=fid,
+                **FRICTIONLESS,
+                model=jc.scenes.ChainModel(settle=False),
             )
             t1 = 20e-6
             _, cold = timed_run(sc, t1, n_save=3)
@@ -110,8 +115,8 @@ def comparison_drive(n_links, fidelity, rollers_on_bush):
         load_torque=20.0,
         pretension=200.0,
         fidelity=fidelity,
-        rollers_on_bush=rollers_on_bush,
         **FRICTIONLESS,
+        model=jc.scenes.ChainModel(rollers_on_bush=rollers_on_bush),
     )
 
 
@@ -198,7 +203,13 @@ def main(argv=None):
         ("clearance/rollers-lumped", "clearance", "lumped"),
     ):
         sc = jc.scenes.engagement(
-            "08B", 18, speed_rpm=1000, n_entry=8, fidelity=fid, rollers_on_bush=rob, **FRICTIONLESS
+            "08B",
+            18,
+            speed_rpm=1000,
+            n_entry=8,
+            fidelity=fid,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(rollers_on_bush=rob),
         )
         eng[key], _ = case(f"engagement z18 {key}", sc, t_eng, rev)
     results["engagement"] = eng

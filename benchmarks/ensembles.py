@@ -407,7 +407,12 @@ def gradient_study(n, t1, dt, repeats, default_adjoint=True):
 # ------------------------------------------------------------------------- (e) compile
 def _compile_row(fid, links, t1, kw):
     sc = jc.scenes.drive(
-        "08B", teeth=(18, 36), n_links=links, fidelity=fid, settle=False, **FRICTIONLESS
+        "08B",
+        teeth=(18, 36),
+        n_links=links,
+        fidelity=fid,
+        **FRICTIONLESS,
+        model=jc.scenes.ChainModel(settle=False),
     )
     traces = {"forward": 0, "gradient": 0, "tangent": 0}
 

@@ -64,12 +64,11 @@ def scene(fidelity, rollers_on_bush, speed_rpm):
         TEETH,
         speed_rpm=speed_rpm,
         tension=TENSION,
-        restitution=RESTITUTION,
         n_entry=8,
-        n_exit=5,  # 8 entry + 9 wrapped + 5 exit: even, as the clearance model needs
+        n_exit=5,
         fidelity=fidelity,
-        rollers_on_bush=rollers_on_bush,
         **FRICTIONLESS,
+        model=jc.scenes.ChainModel(restitution=RESTITUTION, rollers_on_bush=rollers_on_bush),
     )
 
 

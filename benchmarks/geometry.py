@@ -130,10 +130,17 @@ def scenes(name: str):
     else:
         p18, p36 = profiles(18), profiles(36)
         for key in p18:
-            yield key, jc.scenes.drive(
-                CHAIN, teeth=(18, 36), n_links=100, profiles=(p18[key], p36[key]),
-                settle=False, **FRICTIONLESS,
-            )  # fmt: skip
+            yield (
+                key,
+                jc.scenes.drive(
+                    CHAIN,
+                    teeth=(18, 36),
+                    n_links=100,
+                    profiles=(p18[key], p36[key]),
+                    **FRICTIONLESS,
+                    model=jc.scenes.ChainModel(settle=False),
+                ),
+            )
 
 
 def main(argv=None) -> dict:

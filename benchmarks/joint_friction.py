@@ -54,16 +54,27 @@ def period(rpm: float) -> float:
 
 def strand(rpm: float, law, n_entry: int = 8):
     return jc.scenes.engagement(
-        CHAIN, TEETH, speed_rpm=rpm, tension=TENSION, fidelity="clearance",
-        joint_friction=law, n_entry=n_entry,
-    )  # fmt: skip
+        CHAIN,
+        TEETH,
+        speed_rpm=rpm,
+        tension=TENSION,
+        fidelity="clearance",
+        n_entry=n_entry,
+        model=jc.scenes.ChainModel(joint_friction=law),
+    )
 
 
 def drive(rpm: float, law):
     return jc.scenes.drive(
-        CHAIN, teeth=(TEETH, 2 * TEETH), n_links=60, speed_rpm=rpm, load_torque=20.0,
-        pretension=300.0, fidelity="clearance", joint_friction=law,
-    )  # fmt: skip
+        CHAIN,
+        teeth=(TEETH, 2 * TEETH),
+        n_links=60,
+        speed_rpm=rpm,
+        load_torque=20.0,
+        pretension=300.0,
+        fidelity="clearance",
+        model=jc.scenes.ChainModel(joint_friction=law),
+    )
 
 
 def laws(x_s=(5e-6,)) -> dict:

@@ -99,7 +99,7 @@ def worker(path: Path, members: int, repeats: int, iterations: int) -> None:
             len(factors),
             lambda i: jc.scenes.engagement(
                 chain, Z, speed_rpm=RPM * factors[i], profile=profile, n_entry=3,
-                roller_contact=law, joint_friction=joints,
+                model=jc.scenes.ChainModel(roller_contact=law, joint_friction=joints),
             ),
         )  # fmt: skip
 

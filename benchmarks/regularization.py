@@ -130,10 +130,9 @@ def sweep_scene(law):
         TEETH,
         speed_rpm=RPM,
         tension=TENSION,
-        restitution=RESTITUTION,
         n_exit=N_EXIT,
-        roller_contact=law,
         **FRICTIONLESS,
+        model=jc.scenes.ChainModel(restitution=RESTITUTION, roller_contact=law),
     )
 
 
@@ -161,13 +160,13 @@ def fidelity_scene(fidelity, speed_rpm, span_softening=SPAN_SOFTENING):
         TEETH,
         speed_rpm=speed_rpm,
         tension=TENSION,
-        restitution=RESTITUTION,
         n_exit=N_EXIT,
         fidelity=fidelity,
-        settle=False,
-        roller_contact=law_with(nominal_law()),
         span_stiffness=k_span,
         **FRICTIONLESS,
+        model=jc.scenes.ChainModel(
+            restitution=RESTITUTION, settle=False, roller_contact=law_with(nominal_law())
+        ),
     )
     return joint_laws_with(sc)
 

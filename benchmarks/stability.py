@@ -141,7 +141,13 @@ def predicted_step(solver, eigs, horizon=None, growth=GROWTH, h_lo=1e-12, h_hi=1
 def base_scene(n_entry: int) -> jc.Scene:
     """The engagement scene from its layout (settled by :func:`stiffened`)."""
     return jc.scenes.engagement(
-        "08B", TEETH, speed_rpm=RPM, tension=TENSION, n_entry=n_entry, settle=False, **FRICTIONLESS
+        "08B",
+        TEETH,
+        speed_rpm=RPM,
+        tension=TENSION,
+        n_entry=n_entry,
+        **FRICTIONLESS,
+        model=jc.scenes.ChainModel(settle=False),
     )
 
 

@@ -47,9 +47,13 @@ FRICTION = {
 def scene(name, joint_friction="default"):
     chain, teeth = DRIVES[name]
     return jc.scenes.drive(
-        chain, teeth=teeth, speed_rpm=RPM, load_torque=LOAD, pretension=PRETENSION,
-        joint_friction=joint_friction,
-    )  # fmt: skip
+        chain,
+        teeth=teeth,
+        speed_rpm=RPM,
+        load_torque=LOAD,
+        pretension=PRETENSION,
+        model=jc.scenes.ChainModel(joint_friction=joint_friction),
+    )
 
 
 def period(name) -> float:

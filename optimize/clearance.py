@@ -54,9 +54,11 @@ def measure(
         fidelity=fidelity,
         profile=profile,
         n_entry=n_entry,
-        elongation=wear,
-        lubrication=lubrication if fidelity == "clearance" else None,
-        cushion=getattr(design, "cushion", None),
+        model=jc.scenes.ChainModel(
+            elongation=wear,
+            lubrication=lubrication if fidelity == "clearance" else None,
+            cushion=getattr(design, "cushion", None),
+        ),
     )
     period = 60.0 / (rpm * teeth)
     t1 = n_entry * period

@@ -209,10 +209,12 @@ class Problem:
                 fidelity=s.fidelity,
                 profile=profile,
                 n_entry=n_entry,
-                roller_contact=roller_contact,
-                joint_friction=joint_friction,
-                elongation=wear,
-                cushion=cushion,
+                model=jc.scenes.ChainModel(
+                    roller_contact=roller_contact,
+                    joint_friction=joint_friction,
+                    elongation=wear,
+                    cushion=cushion,
+                ),
             )
         driven = jc.ToothProfile.iso606(self.chain, s.driven_teeth, "mid")
         return jc.scenes.drive(
@@ -223,9 +225,11 @@ class Problem:
             pretension=s.pretension,
             fidelity=s.fidelity,
             profiles=(profile, driven),
-            roller_contact=roller_contact,
-            joint_friction=joint_friction,
-            cushion=(cushion, None),
+            model=jc.scenes.ChainModel(
+                roller_contact=roller_contact,
+                joint_friction=joint_friction,
+                cushion=(cushion, None),
+            ),
         )
 
     @property

@@ -50,7 +50,9 @@ def build(speed_rpm: float, mu: float | None):
         if mu is None
         else jc.contact.CoulombFriction(mu, jc.scenes.JOINT_FRICTION.slip_velocity)
     )
-    return jc.scenes.drive(**SCENE, speed_rpm=speed_rpm, joint_friction=friction)
+    return jc.scenes.drive(
+        **SCENE, speed_rpm=speed_rpm, model=jc.scenes.ChainModel(joint_friction=friction)
+    )
 
 
 def spans(sol, scene) -> tuple[np.ndarray, np.ndarray]:
