@@ -229,9 +229,8 @@ def space_of(name: str, spaces: dict):
 
 def laws() -> dict:
     """The re-measurement's roller laws: the nominal (Johnson, None) and the second law."""
-    from optimize.problem import second_law
 
-    return {"johnson": None, "hertz": second_law(CHAIN)}
+    return {"johnson": None, "hertz": jc.design.second_law(CHAIN)}
 
 
 def remeasure(profile, law, rtol: float) -> dict:
@@ -258,14 +257,12 @@ def remeasure(profile, law, rtol: float) -> dict:
 
 
 def hertz_design_law(width: float | None = None):
-    """The second law (Hertz, ``optimize.problem.second_law``) as a design law: its contact
+    """The second law (Hertz, ``jc.design.second_law``) as a design law: its contact
     onset regularized over ``width`` [m] (default the Johnson design law's 3 µm)."""
     import equinox as eqx
 
-    from optimize.problem import second_law
-
     width = LAW.width if width is None else width
-    return eqx.tree_at(lambda law: law.width, second_law(CHAIN), width)
+    return eqx.tree_at(lambda law: law.width, jc.design.second_law(CHAIN), width)
 
 
 def design_objectives(

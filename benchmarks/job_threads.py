@@ -24,9 +24,10 @@ jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 
+import jaxchain as jc  # noqa: E402
 from benchmarks.common import finish, header, parse, parser, save_chart, shown  # noqa: E402
 from benchmarks.designs import add_run_option, read_run, settings_of  # noqa: E402
-from optimize.problem import make_problem, solve_threads  # noqa: E402
+from optimize.problem import make_problem  # noqa: E402
 
 WAYS = {"one by one": 1, "threads": None}  # SpeedGroups.threads
 
@@ -70,7 +71,7 @@ def measure(run: dict, repeats: int) -> dict:
     return {
         "groups": len(objective.groups),
         "members": len(s.ensemble) * len(s.wear),
-        "threads": solve_threads(),
+        "threads": jc.design.solve_threads(),
         "first_calls": first,
         "rows": rows,
         "summary": summary,

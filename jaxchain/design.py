@@ -11,6 +11,8 @@ noise = jc.design.observe(scene, t1, jc.observers.BandLevel.mesh_band(18, 0.2, 2
 objective = jc.design.ProfileObjective(space, build, t1=..., dt=...)      # soft peak force
 objective = jc.design.ProfileObjective(space, build, t1=..., objective=band, combine="max")
 value, grad, members = objective.value_and_grad(u)
+check = jc.design.remeasure([build(profile) for build in members], t1, t_start=t0)  # tight
+sample = jc.design.engagement_sample(strand)            # a strand's per-engagement peaks
 """
 
 from ._design.objective import (
@@ -21,6 +23,13 @@ from ._design.objective import (
     observe as observe,
     soft_peak_force as soft_peak_force,
     window_weight as window_weight,
+)
+from ._design.remeasure import (
+    engagement_sample as engagement_sample,
+    remeasure as remeasure,
+    second_law as second_law,
+    sharp_peak as sharp_peak,
+    solve_threads as solve_threads,
 )
 from ._design.space import PARAMETERS as PARAMETERS, DesignSpace as DesignSpace
 from ._design.sprocket import SprocketDesign as SprocketDesign, profile_of as profile_of
@@ -34,8 +43,13 @@ __all__ = [
     "Penalized",
     "ProfileObjective",
     "SprocketDesign",
+    "engagement_sample",
     "observe",
     "profile_of",
+    "remeasure",
+    "second_law",
+    "sharp_peak",
     "soft_peak_force",
+    "solve_threads",
     "window_weight",
 ]

@@ -9,8 +9,6 @@ difference of the means against the baseline with Welch's interval."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 import jaxchain as jc
@@ -60,27 +58,7 @@ def measure(
             cushion=getattr(design, "cushion", None),
         ),
     )
-    period = 60.0 / (rpm * teeth)
-    t1 = n_entry * period
-    observer = jc.observers.EngagementPeaks.for_solve(scene, t1)
-    t = time.perf_counter()
-    sol = jc.simulate(
-        scene,
-        t1,
-        n_save=2,
-        observers=(observer,),
-        max_steps=STEPS_PER_PERIOD * n_entry,
-        throw=False,
-    )
-    ev = jc.engagement_peaks(sol, t_start=DISCARD * period) if sol.ok else None
-    return {
-        "peaks_N": [] if ev is None else ev.peak.tolist(),
-        "populations": [] if ev is None else ev.populations().tolist(),
-        "ok": bool(sol.ok),
-        "message": sol.message,
-        "steps": int(sol.stats["num_accepted_steps"]),
-        "wall_s": time.perf_counter() - t,
-    }
+    return jc.design.engagement_sample(scene, discard=DISCARD, steps_per_period=STEPS_PER_PERIOD)
 
 
 def _stats(peaks) -> dict:

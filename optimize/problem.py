@@ -14,11 +14,9 @@ Three problems (``--problem``), all robust over a band of speeds and chain wear:
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -443,25 +441,9 @@ def make_problem(settings: Settings) -> Problem:
     )
 
 
-def second_law(chain: jc.ChainSpec, restitution: float = 0.7):
-    """The independent check's roller/tooth law: Hertz (Lankarani–Nikravesh damping) with
-    one stiffness for every design — a roller on a flat, K = (4/3)·E*·√r — so a win cannot
-    come from the design moving the stiffness (Johnson's clearance is also fixed, but its
-    force law differs)."""
-    e_star = jc.effective_modulus(jc.STEEL, jc.STEEL)
-    k = 4.0 / 3.0 * e_star * math.sqrt(float(chain.roller_diameter) / 2)
-    return jc.contact.LankaraniNikravesh(stiffness=k, exponent=1.5, restitution=restitution)
-
-
-def solve_threads() -> int:
-    """Threads for the re-measurement's independent solves: the cores this process may
-    run on; one under JAX's multi-process runtime (every process then re-measures alike)."""
-    if jax.process_count() > 1:
-        return 1
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
+#: the independent check's roller/tooth law (``jc.design.second_law``)
+second_law = jc.design.second_law
+solve_threads = jc.design.solve_threads
 
 
 def solve_all(solve, jobs: list, threads: int | None = None) -> list:
@@ -485,53 +467,26 @@ def remeasure(problem: Problem, profile, *, law: str = "johnson", rtol: float | 
 def remeasure_many(
     problem: Problem, designs: list, *, rtol: float | None = None, threads: int | None = None
 ) -> list[dict]:
-    """:func:`remeasure` of each ``(profile, law)`` in ``designs``, in order. Each
-    operating point's scene is built, settled and solved independently of the others,
-    ``threads`` at a time (default :func:`solve_threads`), each on a core of its own: one
-    XLA solve at a time keeps a second core busy without speeding itself up. The results
-    are those of one solve after the other, bit for bit."""
+    """:func:`remeasure` of each ``(profile, law)`` in ``designs``, in order:
+    ``jc.design.remeasure`` of its operating points, each built, settled and solved
+    independently of the others, ``threads`` at a time (default :func:`solve_threads`),
+    each on a core of its own. The results are those of one solve after the other, bit for
+    bit."""
     s = problem.settings
     rtol = s.remeasure_rtol if rtol is None else rtol
-    n = min(60_001, max(2001, math.ceil((problem.t1 - problem.t_start) / 0.5e-6) + 1))
-    ts = np.linspace(problem.t_start, problem.t1, n)
-    jobs = []  # (design index, speed factor, wear, profile, roller contact law)
-    for i, (profile, law) in enumerate(designs):
-        contact = None if law == "johnson" else second_law(problem.chain)
-        jobs += [(i, f, e, profile, contact) for f, e in problem.operating_points]
-
-    def solve(job):
-        _, f, e, profile, contact = job
-        scene = problem.build(profile, f, roller_contact=contact, wear=e)
-        sol = jc.simulate(
-            scene,
-            problem.t1,
-            solver=diffrax.Dopri8(),
-            rtol=rtol,
-            atol=rtol * 1e-3,
-            ts=ts,
-            max_steps=1_000_000,
-            throw=False,
-        )
-        force = np.asarray(sol.roller_sprocket_force)
-        return {
-            "speed_factor": f,
-            "wear": e,
-            "peak_N": float(np.max(force)) if sol.ok else float("nan"),
-            "ok": sol.ok,
-            "message": sol.message,
-            "steps": int(sol.stats["num_accepted_steps"]),
-            "ts": np.asarray(sol.ts),
-            "force": force.max(axis=1),
-            "torque": np.asarray(sol.sprocket_torque)[:, 0],
-        }
-
-    rows = solve_all(solve, jobs, threads)
     out = []
-    for i in range(len(designs)):
-        members = [r for job, r in zip(jobs, rows, strict=True) if job[0] == i]
-        peaks = [r["peak_N"] for r in members]
-        worst, mean = float(np.max(peaks)), float(np.mean(peaks))
-        out.append({"peak_N": worst, "mean_peak_N": mean, "members": members})
+    for profile, law in designs:
+        contact = None if law == "johnson" else second_law(problem.chain)
+        builds = [
+            lambda p=profile, c=contact, f=f, e=e: problem.build(p, f, roller_contact=c, wear=e)
+            for f, e in problem.operating_points
+        ]
+        r = jc.design.remeasure(
+            builds, problem.t1, t_start=problem.t_start, rtol=rtol, threads=threads
+        )
+        for (f, e), m in zip(problem.operating_points, r["members"], strict=True):
+            m.update(speed_factor=f, wear=e)
+        out.append(r)
     return out
 
 
