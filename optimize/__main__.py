@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from dataclasses import fields
 from pathlib import Path
 
 # Failures here are values (result codes, checked by the run), so equinox's in-graph
@@ -51,7 +52,7 @@ except ImportError:
         'pip install -e ".[optimize]" (from the repository root)'
     )
 
-from .problem import HORIZONS, PROBLEMS, Settings  # noqa: E402
+from .problem import Settings  # noqa: E402
 
 
 def _floats(text: str) -> tuple[float, ...]:
@@ -63,16 +64,11 @@ def _floats(text: str) -> tuple[float, ...]:
         ) from None
 
 
-# what --fast changes: a small run with the same code paths (CI, notebooks in fast mode)
-FAST = dict(
-    periods=2,
-    warmup=1,
-    ensemble=(1.0,),
-    wear=(0.0,),
-    iterations=3,
-    baseline_budget=4,
-    clearance_engagements=0,
-)
+# what --fast changes: a small run with the same code paths (CI, notebooks in fast mode);
+# each from its Settings field's option
+FAST = {f.name: f.metadata["fast"] for f in fields(Settings) if "fast" in f.metadata}
+# each Settings field's command-line flag
+FLAGS = {f.name: f.metadata.get("flag", "--" + f.name.replace("_", "-")) for f in fields(Settings)}
 FAST_RTOL = 1e-6  # the re-measurement's tolerance (no option of its own)
 
 
@@ -98,6 +94,24 @@ def _writable(out: Path) -> None:
         raise ValueError(f"--out {out} is not a writable folder ({e.strerror or e})") from None
 
 
+def _option(ap: argparse.ArgumentParser, f, default) -> None:
+    """The command-line option of Settings field ``f`` (its metadata: help, flag, choices;
+    a ``fast`` or scene-dependent default is None here, filled in by :func:`parse`)."""
+    meta = f.metadata
+    kind = {"int": int, "float": float, "str": str}.get(f.type, _floats)
+    shown = ",".join(f"{v:g}" for v in default) if isinstance(default, tuple) else default
+    given = "fast" in meta or "by_scene" in meta
+    text = meta["help"] if "by_scene" in meta else f"{meta['help']} (default {shown})"
+    ap.add_argument(
+        meta.get("flag", "--" + f.name.replace("_", "-")),
+        dest=f.name,
+        type=kind,
+        choices=meta.get("choices"),
+        default=None if given else default,
+        help=text,
+    )
+
+
 def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
     d = Settings()
     ap = argparse.ArgumentParser(
@@ -105,141 +119,9 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    ap.add_argument(
-        "--problem",
-        choices=(*PROBLEMS, "timing", "quiet"),
-        default=d.problem,
-        help="gentle: free-form asymmetric tooth, worst peak over speeds and wear "
-        "(default); iso: the four ISO 606 parameters inside the standard's box; ring: the "
-        "free-form tooth with a cushion ring beside it (its radius, stiffness and damping; "
-        "the members' mean peak); timing: a "
-        "timing drive's non-circular crank sprocket and tensioner against the camshafts' "
-        "torque over 1000-6000 rpm (optimize/timing.py; --iterations, --out, --resume, "
-        "--fast apply); quiet: the tooth alone and the tooth with a cushion ring "
-        "(problem ring: the ring's radius, stiffness and damping beside the tooth), "
-        "re-measured in the clearance-joint chain dry and in oil (optimize/quiet.py; "
-        "--speeds, --clearance-engagements, --viscosity, --iterations, --out, --resume, "
-        "--fast apply)",
-    )
-    ap.add_argument(
-        "--scene",
-        choices=["engagement", "drive"],
-        default=d.scene,
-        help="engagement: one driver meshing a tensioned strand (default); "
-        "drive: closed chain over driver and driven sprockets",
-    )
-    ap.add_argument("--chain", default=d.chain, help=f"ISO 606 chain (default {d.chain})")
-    ap.add_argument("--teeth", type=int, default=d.teeth, help="teeth of the designed driver")
-    ap.add_argument("--driven-teeth", type=int, default=d.driven_teeth, help="drive scene")
-    ap.add_argument("--speed", type=float, default=d.speed_rpm, help="driver speed [rpm]")
-    ap.add_argument(
-        "--load",
-        type=float,
-        default=None,
-        help="engagement: entry tension [N] (default 1000); drive: load torque [N·m] (default 20)",
-    )
-    ap.add_argument(
-        "--pretension",
-        type=float,
-        default=d.pretension,
-        help=f"drive: chain tension at rest [N] (default {d.pretension:g})",
-    )
-    ap.add_argument("--fidelity", choices=["lumped", "clearance"], default=d.fidelity)
-    ap.add_argument(
-        "--periods", type=int, default=None, help=f"tooth periods simulated (default {d.periods})"
-    )
-    ap.add_argument(
-        "--warmup",
-        type=int,
-        default=None,
-        help=f"periods before the objective's window (start-up; default {d.warmup})",
-    )
-    ap.add_argument(
-        "--ensemble",
-        type=_floats,
-        default=None,
-        help="speed factors of the operating points, e.g. 0.9,1,1.1 (default "
-        + ",".join(f"{f:g}" for f in d.ensemble)
-        + ")",
-    )
-    ap.add_argument(
-        "--wear",
-        type=_floats,
-        default=None,
-        help="chain elongations of the operating points, e.g. 0,0.02 (default "
-        + ",".join(f"{e:g}" for e in d.wear)
-        + ")",
-    )
-    ap.add_argument("--iterations", type=int, default=None, help=f"default {d.iterations}")
-    ap.add_argument("--optimizer", default=d.optimizer, help="optax optimizer (adam, sgd, ...)")
-    ap.add_argument(
-        "--learning-rate",
-        type=float,
-        default=d.learning_rate,
-        help="in the design coordinate u (ISO range: u in about [-4, 4])",
-    )
-    ap.add_argument(
-        "--clip",
-        type=float,
-        default=d.clip,
-        help="clip the gradient to this norm before the optimizer (0: off; default %(default)s)",
-    )
-    ap.add_argument("--dt", type=float, default=d.dt, help="fixed step of the optimized solve [s]")
-    ap.add_argument(
-        "--contact-width",
-        type=float,
-        default=d.contact_width,
-        help="contact-onset regularization of the optimized model [m]",
-    )
-    ap.add_argument(
-        "--joint-slip",
-        type=float,
-        default=d.joint_slip,
-        help="joint friction's creep speed in the optimized model [m/s] (nominal 2e-3)",
-    )
-    ap.add_argument(
-        "--temperature",
-        type=float,
-        default=d.temperature,
-        help="soft-max temperature as a fraction of the baseline peak",
-    )
-    ap.add_argument(
-        "--samples",
-        type=int,
-        default=d.samples,
-        help="soft peak: trapezoid parts per fixed step (0: integrated by the solver's "
-        "stages; default %(default)s)",
-    )
-    ap.add_argument(
-        "--horizon",
-        choices=HORIZONS,
-        default=d.horizon,
-        help="each member's solve: --periods of its own tooth periods (default; one compiled "
-        "solve per speed) or the slowest member's periods (one solve, 3× the periods at "
-        "the fastest of a 0.5-1.5 band)",
-    )
-    ap.add_argument(
-        "--baseline-budget",
-        type=int,
-        default=None,
-        help=f"simulations for the Nelder–Mead comparison (0 skips it; default "
-        f"{d.baseline_budget})",
-    )
-    ap.add_argument(
-        "--clearance-engagements",
-        type=int,
-        default=None,
-        help="re-measure both designs in the clearance-joint chain (the source paper's "
-        "model, default joint friction) over this many meshing events per operating point "
-        f"(0 skips it; default {d.clearance_engagements})",
-    )
-    ap.add_argument(
-        "--clearance-points",
-        choices=("worst", "all"),
-        default=d.clearance_points,
-        help="where to re-measure in the clearance chain: the baseline's worst operating "
-        "point in the lumped chain (default; about a minute) or all of them",
-    )
+    for f in fields(Settings):
+        if f.metadata.get("flag", "") is not None:  # flag None: no option of its own
+            _option(ap, f, getattr(d, f.name))
     ap.add_argument(
         "--speeds",
         type=_floats,
@@ -271,34 +153,11 @@ def parse(argv=None) -> tuple[Settings, argparse.Namespace]:
             setattr(args, k, getattr(d, k))
     if args.scene == "drive" and "wear" not in given:
         args.wear = (0.0,)  # the drive scene models an unworn chain
-    default_load = 1000.0 if args.scene == "engagement" else 20.0
+    for f in fields(Settings):
+        if "by_scene" in f.metadata and getattr(args, f.name) is None:
+            setattr(args, f.name, f.metadata["by_scene"][args.scene])
     s = Settings(
-        problem=args.problem,
-        scene=args.scene,
-        chain=args.chain,
-        teeth=args.teeth,
-        driven_teeth=args.driven_teeth,
-        speed_rpm=args.speed,
-        load=args.load if args.load is not None else default_load,
-        pretension=args.pretension,
-        fidelity=args.fidelity,
-        periods=args.periods,
-        warmup=args.warmup,
-        ensemble=tuple(args.ensemble),
-        wear=tuple(args.wear),
-        iterations=args.iterations,
-        optimizer=args.optimizer,
-        learning_rate=args.learning_rate,
-        clip=args.clip,
-        dt=args.dt,
-        contact_width=args.contact_width,
-        joint_slip=args.joint_slip,
-        temperature=args.temperature,
-        samples=args.samples,
-        horizon=args.horizon,
-        baseline_budget=args.baseline_budget,
-        clearance_engagements=args.clearance_engagements,
-        clearance_points=args.clearance_points,
+        **{f.name: getattr(args, f.name) for f in fields(Settings) if hasattr(args, f.name)}
     )
     if args.fast or os.environ.get("JAXCHAIN_FAST") == "1":  # as the notebooks read it
         s = fast_settings(s, given)
@@ -376,10 +235,11 @@ def _refuse_unused(args, problem: str, what: str) -> None:
     )  # fmt: skip
     unused += sorted(k for k in FAST if k in args.given and k not in used)
     if unused:
-        reads = ", ".join("--" + k.replace("_", "-") for k in sorted(used - {"given", "problem"}))
+        flag = lambda k: FLAGS.get(k) or "--" + k.replace("_", "-")
+        reads = ", ".join(flag(k) for k in sorted(used - {"given", "problem"}))
         raise SystemExit(
             f"python -m optimize: error: --problem {problem} {what} and does not use "
-            + ", ".join("--" + k.replace("_", "-") for k in unused)
+            + ", ".join(flag(k) for k in unused)
             + f" (it reads {reads})"
         )
 

@@ -49,40 +49,103 @@ MAX_COMBINED = ("gentle",)
 HORIZONS = ("slowest", "own")
 
 
+def option(default, help: str, **cli):
+    """A :class:`Settings` field with its command-line option: ``help`` (the default is
+    appended), ``flag`` (default ``--`` + the name with dashes), ``choices``, and
+    ``fast``: the option's default is None on the command line, so that ``--fast`` can tell
+    a value given from the default (:data:`optimize.__main__.FAST`)."""
+    meta = {"help": help, **cli}
+    if isinstance(default, tuple):
+        return field(default_factory=lambda: default, metadata=meta)
+    return field(default=default, metadata=meta)
+
+
 @dataclass
 class Settings:
-    """Everything that defines a run (saved with its results; a resume must match)."""
+    """Everything that defines a run (saved with its results; a resume must match). Each
+    field's option of ``python -m optimize`` is generated from it (``optimize.__main__``)."""
 
-    problem: str = "gentle"  # "gentle" (free-form tooth), "iso" (ISO 606 box), "ring" (+ ring)
-    scene: str = "engagement"  # "engagement" (one driver meshing a strand) or "drive"
-    chain: str = "08B"
-    teeth: int = 18  # the designed sprocket (the driver)
-    driven_teeth: int = 36  # drive scene only
-    speed_rpm: float = 1000.0
-    load: float = 1000.0  # engagement: entry-span tension [N]; drive: load torque [N·m]
-    pretension: float = 200.0  # drive scene only: chain tension at rest [N]
-    fidelity: str = "lumped"
-    periods: int = 2  # simulated tooth periods of the designed sprocket
-    warmup: int = 1  # periods before the objective's window opens
-    temperature: float = 0.007  # soft-max temperature, fraction of the reference peak
-    samples: int = 8  # soft peak: trapezoid parts per fixed step (0: the solver's stages)
-    horizon: str = "own"  # "own": each member over `periods` of its own; "slowest": all
-    # members over the slowest's (the window fits the slowest member either way)
-    dt: float = 4e-6  # fixed step of the optimized solve [s]
-    contact_width: float = 3e-6  # roller/tooth onset regularization of the optimized model [m]
-    joint_slip: float = 2e-2  # joint friction's creep speed in the optimized model [m/s]
-    ensemble: tuple[float, ...] = (0.5, 1.0, 1.5)  # speed factors of the operating points
-    wear: tuple[float, ...] = (0.0, 0.02)  # chain elongations of the operating points
-    iterations: int = 10
-    optimizer: str = "adam"
-    learning_rate: float = 0.25
-    clip: float = 100.0  # largest gradient norm passed to the optimizer [N] (0: no clipping)
-    baseline_budget: int = 120  # simulations for the gradient-free baseline (0: skip)
-    remeasure_rtol: float = 1e-9
-    # the re-measurement in the clearance-joint chain: meshing events per operating point
-    # (0: skip it) and at which points ("worst": the baseline's worst in the lumped chain)
-    clearance_engagements: int = 30
-    clearance_points: str = "worst"
+    problem: str = option(
+        "gentle",
+        "gentle: free-form asymmetric tooth, worst peak over speeds and wear; iso: the four "
+        "ISO 606 parameters inside the standard's box; ring: the free-form tooth with a "
+        "cushion ring beside it (its radius, stiffness and damping; the members' mean "
+        "peak); timing: a timing drive's non-circular crank sprocket and tensioner against "
+        "the camshafts' torque over 1000-6000 rpm (optimize/timing.py; --iterations, --out, "
+        "--resume, --fast apply); quiet: the tooth alone and the tooth with a cushion ring "
+        "(problem ring: the ring's radius, stiffness and damping beside the tooth), "
+        "re-measured in the clearance-joint chain dry and in oil (optimize/quiet.py; "
+        "--speeds, --clearance-engagements, --viscosity, --iterations, --out, --resume, "
+        "--fast apply)",
+        choices=("gentle", "iso", "ring", "timing", "quiet"),
+    )
+    scene: str = option(
+        "engagement",
+        "engagement: one driver meshing a tensioned strand; drive: closed chain over driver "
+        "and driven sprockets",
+        choices=("engagement", "drive"),
+    )
+    chain: str = option("08B", "ISO 606 chain")
+    teeth: int = option(18, "teeth of the designed sprocket (the driver)")
+    driven_teeth: int = option(36, "drive scene: teeth of the driven sprocket")
+    speed_rpm: float = option(1000.0, "driver speed [rpm]", flag="--speed")
+    load: float = option(
+        1000.0,
+        "engagement: entry tension [N] (default 1000); drive: load torque [N·m] (default 20)",
+        by_scene={"engagement": 1000.0, "drive": 20.0},
+    )
+    pretension: float = option(200.0, "drive scene: chain tension at rest [N]")
+    fidelity: str = option(
+        "lumped", "the designed model's fidelity", choices=("lumped", "clearance")
+    )
+    periods: int = option(2, "tooth periods simulated", fast=2)
+    warmup: int = option(1, "periods before the objective's window (start-up)", fast=1)
+    temperature: float = option(0.007, "soft-max temperature as a fraction of the baseline peak")
+    samples: int = option(
+        8,
+        "soft peak: trapezoid parts per fixed step (0: integrated by the solver's stages)",
+    )
+    horizon: str = option(
+        "own",
+        "each member's solve: --periods of its own tooth periods (one compiled solve per "
+        "speed) or the slowest member's periods (one solve, 3× the periods at the fastest of "
+        "a 0.5-1.5 band); the window fits the slowest member either way",
+        choices=HORIZONS,
+    )
+    dt: float = option(4e-6, "fixed step of the optimized solve [s]")
+    contact_width: float = option(3e-6, "contact-onset regularization of the optimized model [m]")
+    joint_slip: float = option(
+        2e-2, "joint friction's creep speed in the optimized model [m/s] (nominal 2e-3)"
+    )
+    ensemble: tuple[float, ...] = option(
+        (0.5, 1.0, 1.5), "speed factors of the operating points, e.g. 0.9,1,1.1", fast=(1.0,)
+    )
+    wear: tuple[float, ...] = option(
+        (0.0, 0.02), "chain elongations of the operating points, e.g. 0,0.02", fast=(0.0,)
+    )
+    iterations: int = option(10, "optimizer iterations", fast=3)
+    optimizer: str = option("adam", "optax optimizer (adam, sgd, ...)")
+    learning_rate: float = option(
+        0.25, "in the design coordinate u (ISO range: u in about [-4, 4])"
+    )
+    clip: float = option(100.0, "clip the gradient to this norm [N] before the optimizer (0: off)")
+    baseline_budget: int = option(
+        120, "simulations for the Nelder–Mead comparison (0 skips it)", fast=4
+    )
+    remeasure_rtol: float = option(1e-9, "the re-measurement's tolerance (--fast: 1e-6)", flag=None)
+    clearance_engagements: int = option(
+        30,
+        "re-measure both designs in the clearance-joint chain (the source paper's model, "
+        "default joint friction) over this many meshing events per operating point (0 "
+        "skips it)",
+        fast=0,
+    )
+    clearance_points: str = option(
+        "worst",
+        "where to re-measure in the clearance chain: the baseline's worst operating point "
+        "in the lumped chain (about a minute) or all of them",
+        choices=("worst", "all"),
+    )
 
     def validate(self) -> None:
         if self.problem not in PROBLEMS:
