@@ -293,3 +293,16 @@ def test_the_main_job_writes_its_delivered_design_loadable(tmp_path):
     results["optimized"]["params"]["seating_radius"] *= 1.01
     with pytest.raises(ValueError, match="cannot be rebuilt"):
         delivered_profile(results)
+
+
+def test_a_part_is_read_as_its_fields_declared_class(tmp_path):
+    """A free-form profile's flanks load as the library's Flank even where a class of that
+    name is defined after it (a notebook's own): the field's declared class comes first."""
+
+    class Flank(eqx.Module):  # noqa: F841  (shadows the part's name, on purpose)
+        x: float = 0.0
+
+    profile = jc.FreeformProfile.from_iso(jc.ToothProfile.iso606("08B", 18, "min"))
+    profile.save(tmp_path / "p.json")
+    loaded = jc.load_profile(tmp_path / "p.json")
+    assert type(loaded.cw) is type(profile.cw) and type(loaded.ccw) is type(profile.ccw)

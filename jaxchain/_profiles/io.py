@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import typing
 from pathlib import Path
 
 import equinox as eqx
@@ -13,7 +14,6 @@ import numpy as np
 from .. import _checks as checks
 from .base import AbstractProfile
 from .freeform import FreeformProfile  # noqa: F401  (the built-in kinds: defined here)
-from .freeform_shape import Flank
 from .iso import ToothProfile  # noqa: F401
 from .record import FORMAT, HEADER, VERSION
 
@@ -42,11 +42,16 @@ def profile_kinds() -> dict[str, type]:
     return kinds
 
 
-def _part(name: str) -> type | None:
-    """The module class a profile nests under ``name`` (a free-form profile's ``Flank``,
-    or a part of a kind of your own): the latest ``eqx.Module`` of that name."""
-    if name == "Flank":
-        return Flank
+def _part(owner: type, field: str, name: str) -> type | None:
+    """The module class a profile nests under ``name`` in its ``field`` (a free-form
+    profile's ``Flank``, or a part of a kind of your own): the field's declared class
+    when it has that name, else the latest ``eqx.Module`` of that name."""
+    try:
+        declared = typing.get_type_hints(owner).get(field)
+    except (NameError, TypeError):  # a hint that does not resolve: read by name
+        declared = None
+    if isinstance(declared, type) and declared.__name__ == name:
+        return declared
     found = [c for c in _subclasses(eqx.Module) if c.__name__ == name]
     return found[-1] if found else None
 
@@ -105,7 +110,7 @@ def _build(cls: type, data: dict, where: str):
         raw, name = data[f.name], f"{where}.{f.name}"
         if isinstance(raw, dict):
             part = raw.get("kind")
-            cls_part = _part(part) if isinstance(part, str) else None
+            cls_part = _part(cls, f.name, part) if isinstance(part, str) else None
             if cls_part is None:
                 raise ValueError(
                     f"{name}: unknown part kind {part!r} (no module class of that name is defined)"
