@@ -153,9 +153,11 @@ def test_bad_input():
         with pytest.raises(ValueError, match=r"bush chain .*no roller to put on a bush/roller"):
             build("04C", rollers_on_bush="joint", fidelity="clearance", settle=False)
     with pytest.raises(ValueError, match=r"rollers_on_bush must be one of"):
-        jc.scenes.engagement("06C", rollers_on_bush="bush", settle=False)
+        jc.scenes.engagement(
+            "06C", model=jc.scenes.ChainModel(rollers_on_bush="bush", settle=False)
+        )
     with pytest.raises(TypeError, match=r"friction must be a jc.contact.CoulombFriction"):
-        jc.scenes.engagement("06C", friction="coulomb", settle=False)
+        jc.scenes.engagement("06C", model=jc.scenes.ChainModel(friction="coulomb", settle=False))
 
 
 def test_clearance_model_is_the_papers_bush_chain():
@@ -164,7 +166,9 @@ def test_clearance_model_is_the_papers_bush_chain():
     bushing link, whose mass is the chain's own (no roller mass added); a roller chain of
     the same pitch has both."""
     chain = jc.ChainSpec.iso606("06C")
-    sc = jc.scenes.engagement(chain, 18, fidelity="clearance", settle=False)
+    sc = jc.scenes.engagement(
+        chain, 18, fidelity="clearance", model=jc.scenes.ChainModel(settle=False)
+    )
     assert sc.n_bodies == sc.n_links == sc.n_rollers - 1  # an open strand: links only
     assert len(sc.pairs) == 1 and sc.pairs[0].carries_tension  # pin/bush joints
     body = np.asarray(sc.roller_body)
@@ -179,14 +183,19 @@ def test_clearance_model_is_the_papers_bush_chain():
     # the bush slides on the tooth: Dahl friction by default (a roller chain: none)
     assert sc.friction == jc.scenes.BUSH_TOOTH_FRICTION
     same = jc.scenes.engagement(
-        chain, 18, fidelity="clearance", rollers_on_bush="lumped", settle=False
+        chain,
+        18,
+        fidelity="clearance",
+        model=jc.scenes.ChainModel(rollers_on_bush="lumped", settle=False),
     )
     assert same.n_bodies == sc.n_bodies and len(same.pairs) == 1
-    roller = jc.scenes.engagement("06B", 18, fidelity="clearance", settle=False)
+    roller = jc.scenes.engagement(
+        "06B", 18, fidelity="clearance", model=jc.scenes.ChainModel(settle=False)
+    )
     assert roller.n_bodies == roller.n_links + roller.n_rollers and len(roller.pairs) == 2
     assert roller.bush_link is None
     # the lumped bush chain: points of half an inner and half an outer link each
-    lumped = jc.scenes.engagement(chain, 18, settle=False)
+    lumped = jc.scenes.engagement(chain, 18, model=jc.scenes.ChainModel(settle=False))
     half = 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
     np.testing.assert_allclose(np.asarray(lumped.mass)[1:-1], half, rtol=1e-12)
     assert lumped.bush_link is not None and lumped.pairs[0].carries_tension
@@ -346,12 +355,15 @@ def test_tooth_friction_with_states_runs_and_differentiates():
 
     period = tooth_period(1000, 18)
     scene = jc.scenes.engagement(
-        "06C", 18, n_entry=2, joint_friction=fixed_step_joints(),
-        roller_contact=jc.scenes.roller_law(jc.ChainSpec.iso606("06C"), 0.7, width=3e-6),
-    )  # fmt: skip
+        "06C",
+        18,
+        n_entry=2,
+        model=jc.scenes.ChainModel(
+            joint_friction=fixed_step_joints(),
+            roller_contact=jc.scenes.roller_law(jc.ChainSpec.iso606("06C"), 0.7, width=3e-6),
+        ),
+    )
     assert scene.friction == jc.scenes.BUSH_TOOTH_FRICTION == DAHL
-    sol = jc.simulate(scene, 0.5 * period, n_save=11)  # the program of the test above
-    assert sol.ok, sol.message
     n = int(round(0.5 * period / 4e-6))
 
     def total(mu):
@@ -373,10 +385,17 @@ def test_energy_balance_without_dissipation(fidelity):
     chain's kinetic and stored energy (links or pin/bush joints, bush/tooth contacts)
     changes exactly by the driver's work, to the trapezoid rule's error over the saves."""
     sc = jc.scenes.drive(
-        "06C", teeth=(12, 24), n_links=40, speed_rpm=1000, load_torque=0.0, pretension=150.0,
-        restitution=1.0, link_damping=0.0, joint_friction=None, friction=None,
+        "06C",
+        teeth=(12, 24),
+        n_links=40,
+        speed_rpm=1000,
+        load_torque=0.0,
+        pretension=150.0,
         fidelity=fidelity,
-    )  # fmt: skip
+        model=jc.scenes.ChainModel(
+            restitution=1.0, link_damping=0.0, joint_friction=None, friction=None
+        ),
+    )
     err, scale = energy_balance_error(sc, 0.5 * tooth_period(1000, 12), 8001)
     assert scale > 1e-3  # the driver does work (J)
     assert err < 2e-4, err

@@ -33,7 +33,7 @@ def test_clearance_drive_settles(rollers):
     assert float(jnp.max(jnp.abs(fr.body[:, :2]))) <= 1e-6 * force_scale
     np.testing.assert_allclose(float(fr.sprocket_torque[1]), 10.0, rtol=1e-6)
     # every pin/bush joint carries tension; spans: tight − slack = load / R2
-    layout = jc.scenes.drive("08B", **kw, settle=False)
+    layout = jc.scenes.drive("08B", **kw, model=jc.scenes.ChainModel(settle=False))
     moved = np.abs(np.asarray(sc.q0[:, :2] - layout.q0[:, :2])).max()
     assert moved < 0.1 * 0.0127
     tension = np.asarray(fr.element_tension)
@@ -58,7 +58,13 @@ def test_clearance_fidelity_balances_and_runs():
     sol = jc.simulate(sc, 0.25 * tooth_period(1000, 18), n_save=51)  # 17 000 steps
     assert sol.ok and float(sol.peak_contact_force) > 100.0
     # action = reaction at the layout (settling is test_clearance_drive_settles')
-    drive = jc.scenes.drive("08B", teeth=(12, 24), n_links=40, fidelity="clearance", settle=False)
+    drive = jc.scenes.drive(
+        "08B",
+        teeth=(12, 24),
+        n_links=40,
+        fidelity="clearance",
+        model=jc.scenes.ChainModel(settle=False),
+    )
     y = initial_state(drive)
     fr = forces(0.0, y, drive)
     total = jnp.sum(fr.body[:, :2], 0) + jnp.sum(fr.sprocket_force, 0)

@@ -29,7 +29,7 @@ def test_the_solve_has_no_host_callback(monkeypatch):
     """With equinox raising on errors (its default), diffrax's checks of the traced times
     would be host callbacks; the solve traces them without any."""
     monkeypatch.setattr(eqx_errors, "EQX_ON_ERROR", "raise")
-    scene = jc.scenes.engagement("08B", 18, n_entry=2, settle=False)
+    scene = jc.scenes.engagement("08B", 18, n_entry=2, model=jc.scenes.ChainModel(settle=False))
     t1 = tooth_period(1000, 18)
     # a save count no other test uses: a trace of this solve cached earlier in the process
     # (another test's, under the test run's "nan" mode) would hide a callback

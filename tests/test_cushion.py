@@ -44,7 +44,7 @@ def plain():
 @pytest.fixture(scope="module")
 def cushioned():
     """The default engagement with the 30.2 mm ring (interfering ≈ 0.1 mm when seated)."""
-    return jc.scenes.engagement("08B", Z, speed_rpm=RPM, cushion=RING)
+    return jc.scenes.engagement("08B", Z, speed_rpm=RPM, model=jc.scenes.ChainModel(cushion=RING))
 
 
 # ------------------------------------------------------------------ no reach, no change
@@ -54,7 +54,9 @@ def test_ring_out_of_reach_changes_nothing(plain):
     tooth period's solve match the scene without it to rounding (both solves with
     ``simulate``'s defaults)."""
     assert 0.029 < SEATED_EDGE - 1e-3
-    low = jc.scenes.engagement("08B", Z, speed_rpm=RPM, cushion=jc.elements.CushionRing(0.029))
+    low = jc.scenes.engagement(
+        "08B", Z, speed_rpm=RPM, model=jc.scenes.ChainModel(cushion=jc.elements.CushionRing(0.029))
+    )
     np.testing.assert_allclose(low.q0, plain.q0, rtol=0, atol=1e-13)
     a = jc.simulate(plain, PERIOD)
     b = jc.simulate(low, PERIOD)
@@ -152,7 +154,11 @@ def test_ring_forces_are_the_gradient_of_its_energy(fidelity):
     clearance chain's links included), and the force on the axis is −∂V/∂c."""
     ring = jc.elements.CushionRing(0.0308, damping=0.0)
     scene = jc.scenes.engagement(
-        "08B", Z, speed_rpm=RPM, fidelity=fidelity, settle=False, cushion=ring
+        "08B",
+        Z,
+        speed_rpm=RPM,
+        fidelity=fidelity,
+        model=jc.scenes.ChainModel(settle=False, cushion=ring),
     )
     el = _ring(scene)
 
@@ -224,7 +230,9 @@ def test_ring_work_over_a_solve_is_its_energy_change(cushioned):
 def test_ring_force_gradients_match_central_differences():
     """At a moving state, d(total ring force)/d(radius, stiffness, damping) by AD equals
     central differences (the law and the geometry are smooth in the ring's leaves)."""
-    scene = jc.scenes.engagement("08B", Z, speed_rpm=RPM, settle=False, cushion=RING)
+    scene = jc.scenes.engagement(
+        "08B", Z, speed_rpm=RPM, model=jc.scenes.ChainModel(settle=False, cushion=RING)
+    )
     y = _perturbed_states(scene, 1, seed=3)[0]
     p0 = np.array([0.0302, 5e7, 0.5])
 
@@ -259,9 +267,11 @@ def test_peak_gradient_through_fixed_steps_matches_central_differences():
         "08B",
         Z,
         speed_rpm=RPM,
-        cushion=RING,
-        roller_contact=jc.scenes.roller_law(CHAIN, 0.7, width=3e-6),
-        joint_friction=fixed_step_joints(),
+        model=jc.scenes.ChainModel(
+            cushion=RING,
+            roller_contact=jc.scenes.roller_law(CHAIN, 0.7, width=3e-6),
+            joint_friction=fixed_step_joints(),
+        ),
     )
     n = int(round(PERIOD / 4e-6))
 
@@ -300,7 +310,9 @@ def test_default_engagement_with_a_ring_runs(cushioned):
 @pytest.mark.parametrize("fidelity", ["lumped", "clearance"])
 @pytest.mark.parametrize("rpm", [100.0, 3000.0])
 def test_ring_defaults_run(fidelity, rpm):
-    sc = jc.scenes.engagement(speed_rpm=rpm, fidelity=fidelity, cushion=RING)
+    sc = jc.scenes.engagement(
+        speed_rpm=rpm, fidelity=fidelity, model=jc.scenes.ChainModel(cushion=RING)
+    )
     sol = jc.simulate(sc, 2 * tooth_period(rpm, Z))
     assert sol.ok and float(sol.peak_contact_force) > 0, sol.message
 
@@ -337,7 +349,7 @@ def test_drive_rings_press_on_the_side_facing_each_sprocket():
         load_torque=(0.0, 15.0),
         pretension=150.0,
     )
-    scene = jc.scenes.drive("08B", settle=False, cushion=rings, **kw)
+    scene = jc.scenes.drive("08B", **kw, model=jc.scenes.ChainModel(settle=False, cushion=rings))
     el = _ring(scene)
     assert el.sprockets == (0, 1) and el.sides == (1, -1)
     depth = np.asarray(el._contacts(initial_state(scene), scene)[0])
@@ -348,7 +360,7 @@ def test_drive_rings_press_on_the_side_facing_each_sprocket():
     assert spec.arguments()["model"].cushion == rings
     assert _ring(spec.build()).sides == (1, -1)
     with pytest.raises(ValueError, match="fidelity='lumped' or 'clearance'"):
-        jc.scenes.drive("08B", fidelity="spans", cushion=rings, **kw)
+        jc.scenes.drive("08B", fidelity="spans", **kw, model=jc.scenes.ChainModel(cushion=rings))
 
 
 def test_strand_spec_carries_the_ring():
@@ -418,15 +430,17 @@ def test_bad_inputs_raise_with_the_fix():
     with pytest.raises(ValueError, match="must be a scalar"):
         jc.elements.CushionRing(jnp.array([0.03, 0.031]))
     with pytest.raises(TypeError, match="cushion must be a jc.elements.CushionRing"):
-        jc.scenes.engagement("08B", Z, cushion=0.0302)
+        jc.scenes.engagement("08B", Z, model=jc.scenes.ChainModel(cushion=0.0302))
     with pytest.raises(ValueError, match="reaches the pitch line"):
-        jc.scenes.engagement("08B", Z, cushion=jc.elements.CushionRing(0.037))
+        jc.scenes.engagement(
+            "08B", Z, model=jc.scenes.ChainModel(cushion=jc.elements.CushionRing(0.037))
+        )
     with pytest.raises(TypeError, match=r"cushion=\(ring, None\)"):
-        jc.scenes.drive("08B", cushion=RING)
+        jc.scenes.drive("08B", model=jc.scenes.ChainModel(cushion=RING))
     with pytest.raises(ValueError, match="must hold 2 entries"):
-        jc.scenes.drive("08B", cushion=(RING,))
+        jc.scenes.drive("08B", model=jc.scenes.ChainModel(cushion=(RING,)))
     with pytest.raises(ValueError, match="fidelity='lumped' or 'clearance'"):
-        jc.scenes.drive("08B", fidelity="spans", cushion=(RING, None))
-    laid = jc.scenes.engagement("08B", Z, settle=False, cushion=RING)
+        jc.scenes.drive("08B", fidelity="spans", model=jc.scenes.ChainModel(cushion=(RING, None)))
+    laid = jc.scenes.engagement("08B", Z, model=jc.scenes.ChainModel(settle=False, cushion=RING))
     with pytest.raises(ValueError, match="cushion rings already"):
         jc.elements.CushionContacts.attach(laid, RING, CHAIN)

@@ -36,10 +36,12 @@ def _build(design, cushion=True):
         Z,
         speed_rpm=RPM,
         profile=design.profile,
-        cushion=design.cushion if cushion else None,
         n_entry=3,
-        roller_contact=LAW,
-        joint_friction=fixed_step_joints(),
+        model=jc.scenes.ChainModel(
+            cushion=design.cushion if cushion else None,
+            roller_contact=LAW,
+            joint_friction=fixed_step_joints(),
+        ),
     )
 
 

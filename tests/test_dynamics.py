@@ -116,9 +116,14 @@ def test_worn_chain_rides_higher_and_moves_the_take_up(small_drive):
     most half the extra length and at least that less the wraps' extra half-circumference."""
     e, z1, z2 = 0.02, 9, 18
     worn = jc.scenes.drive(
-        "08B", teeth=(z1, z2), n_links=40, speed_rpm=600, load_torque=10.0,
-        pretension=300.0, elongation=e,
-    )  # fmt: skip
+        "08B",
+        teeth=(z1, z2),
+        n_links=40,
+        speed_rpm=600,
+        load_torque=10.0,
+        pretension=300.0,
+        model=jc.scenes.ChainModel(elongation=e),
+    )
     y = initial_state(worn)
     y = y._replace(v=jnp.zeros_like(y.v), omega=jnp.zeros_like(y.omega))
     fr = forces(0.0, y, worn)
@@ -203,9 +208,7 @@ def test_energy_balance_without_dissipation():
         speed_rpm=600,
         load_torque=0.0,
         pretension=300.0,
-        restitution=1.0,
-        link_damping=0.0,
-        joint_friction=None,
+        model=jc.scenes.ChainModel(restitution=1.0, link_damping=0.0, joint_friction=None),
     )
     err, scale = energy_balance_error(sc, 0.5 * tooth_period(600, 9), 4001)
     assert scale > 1e-2  # the driver does work (J)
@@ -214,23 +217,23 @@ def test_energy_balance_without_dissipation():
 
 def test_scene_validation():
     with pytest.raises(ValueError, match="speed_rpm must be > 0"):
-        jc.scenes.drive(speed_rpm=0.0, settle=False)
+        jc.scenes.drive(speed_rpm=0.0, model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="load_torque must be >= 0"):
-        jc.scenes.drive(load_torque=-1.0, settle=False)
+        jc.scenes.drive(load_torque=-1.0, model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="even"):
-        jc.scenes.drive(n_links=101, settle=False)
+        jc.scenes.drive(n_links=101, model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="centre"):
-        jc.scenes.drive(centre_distance=0.05, settle=False)
+        jc.scenes.drive(centre_distance=0.05, model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="tension must be > 0"):
-        jc.scenes.engagement(tension=0.0, settle=False)
+        jc.scenes.engagement(tension=0.0, model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="fidelity"):
-        jc.scenes.drive(fidelity="exact", settle=False)
+        jc.scenes.drive(fidelity="exact", model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="pretension >= "):  # the slack span would push
         jc.scenes.drive(teeth=(12, 24), n_links=40, load_torque=20.0, pretension=200.0)
     # a profile cut for another chain (10B on an 08B strand) would put rollers into teeth
     other = jc.ToothProfile.iso606(jc.ChainSpec.iso606("10B"), 18)
     with pytest.raises(ValueError, match=r"profile has pitch 15.88 mm but chain 08B has 12.7"):
-        jc.scenes.engagement("08B", 18, profile=other, settle=False)
+        jc.scenes.engagement("08B", 18, profile=other, model=jc.scenes.ChainModel(settle=False))
     mine = jc.ToothProfile.iso606(jc.ChainSpec.iso606("08B"), 36)
     with pytest.raises(ValueError, match=r"profiles\[0\] has roller_diameter"):
         jc.scenes.drive(

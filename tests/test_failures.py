@@ -26,7 +26,15 @@ EULER_STEPS = 10_000  # max_steps of the fixed-step Euler solves (static)
 
 
 def small_engagement():
-    sc = jc.scenes.engagement("08B", 18, speed_rpm=1000, n_entry=3, n_exit=2, wrap=9, settle=False)
+    sc = jc.scenes.engagement(
+        "08B",
+        18,
+        speed_rpm=1000,
+        n_entry=3,
+        n_exit=2,
+        wrap=9,
+        model=jc.scenes.ChainModel(settle=False),
+    )
     # the law's float fields as arrays, so that changing one is a new value, not a new
     # structure (no recompile between the tests)
     law = sc.roller_law
@@ -344,7 +352,13 @@ def test_a_solve_past_the_scene_horizon_is_refused(scene):
         jc.simulate_ensemble([scene, late], T1)
     with pytest.raises(ValueError, match=match):
         jc.design.soft_peak_force(scene, 4 * PERIOD)
-    assert np.isinf(float(jc.scenes.drive("08B", (9, 9), n_links=20, settle=False).horizon))
+    assert np.isinf(
+        float(
+            jc.scenes.drive(
+                "08B", (9, 9), n_links=20, model=jc.scenes.ChainModel(settle=False)
+            ).horizon
+        )
+    )
 
 
 def test_the_classification_orders_causes_first():

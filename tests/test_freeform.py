@@ -525,13 +525,15 @@ def test_scenes_read_free_form_sprockets(fidelity):
     in both fidelities, and (lumped) a drive mixing a free-form driver, z = 18, with an
     ISO driven sprocket, z = 36, in one vmapped contact; a per-gap pattern's is finite."""
     kw = dict(speed_rpm=600, fidelity=fidelity, settle=False)
-    iso = jc.scenes.engagement(CH, Z, form="mid", **kw)
+    iso = jc.scenes.engagement(CH, Z, **kw, model=jc.scenes.ChainModel(form="mid"))
     ff = jc.scenes.engagement(CH, Z, profile=jc.FreeformProfile.from_iso(ISO, 3), **kw)
     _same_field(iso, ff, 1e-9)
     if fidelity != "lumped":
         return
     z2 = jc.ToothProfile.iso606(CH, 36, "mid")
-    d_iso = jc.scenes.drive(CH, teeth=(Z, 36), n_links=60, form="mid", **kw)
+    d_iso = jc.scenes.drive(
+        CH, teeth=(Z, 36), n_links=60, **kw, model=jc.scenes.ChainModel(form="mid")
+    )
     d_ff = jc.scenes.drive(
         CH, teeth=(Z, 36), n_links=60, profiles=(jc.FreeformProfile.from_iso(ISO, 2), z2), **kw
     )

@@ -91,7 +91,9 @@ def test_users_law_equals_builtin(fidelity):
     """At a state with sliding joints and loaded states, the user's law gives the built-in
     law's forces and state rates (lumped chain: the joints' friction moments; clearance
     chain: the pin/bush and bush/roller contacts), and their friction takes power."""
-    scene = jc.scenes.engagement("08B", 18, fidelity=fidelity, joint_friction=DAHL, n_entry=3)
+    scene = jc.scenes.engagement(
+        "08B", 18, fidelity=fidelity, n_entry=3, model=jc.scenes.ChainModel(joint_friction=DAHL)
+    )
     y = _sliding(scene)
     b_ref, r_ref, p_ref = _forces(scene, y)
     b_mine, r_mine, p_mine = _forces(_with_law(scene, MINE), y)
@@ -105,7 +107,9 @@ def test_two_states_per_contact():
     """A law with two states per contact gets twice the drive-state entries, them as
     (contacts, 2) and its rates back in the drive state's layout: with both copies equal
     it matches the one-state law."""
-    scene = jc.scenes.engagement("08B", 18, joint_friction=DAHL, n_entry=3)
+    scene = jc.scenes.engagement(
+        "08B", 18, n_entry=3, model=jc.scenes.ChainModel(joint_friction=DAHL)
+    )
     y = _sliding(scene, 1)
     two = _with_law(scene, TwoCopies(MINE))
     y2 = y._replace(bristle=jnp.repeat(y.bristle, 2))
@@ -120,7 +124,7 @@ def test_stateful_law_at_the_teeth():
     """A user's law with states acts at the roller/tooth contacts too (one state per
     sprocket and roller): at a state with sliding rollers and loaded states it gives the
     built-in law's roller forces and state rates, and its friction takes power."""
-    base = jc.scenes.engagement("08B", 18, n_entry=3, friction=DAHL)
+    base = jc.scenes.engagement("08B", 18, n_entry=3, model=jc.scenes.ChainModel(friction=DAHL))
     y = _sliding(base)
     mine = eqx.tree_at(lambda s: s.friction, base, MINE)
     ref, got = _forces(base, y), _forces(mine, y)
@@ -129,4 +133,4 @@ def test_stateful_law_at_the_teeth():
     np.testing.assert_allclose(np.asarray(got[1]), np.asarray(ref[1]), rtol=1e-10, atol=1e-14)
     assert float(jax.jit(forces)(0.0, y, mine).tooth_friction_power) < -1e-3
     with pytest.raises(TypeError, match="AbstractFrictionLaw"):
-        jc.scenes.engagement("08B", 18, joint_friction=0.1)
+        jc.scenes.engagement("08B", 18, model=jc.scenes.ChainModel(joint_friction=0.1))

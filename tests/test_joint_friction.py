@@ -82,7 +82,9 @@ def test_joint_friction_dissipates_and_balances(fidelity):
     forces, adds no net force (and, lumped, no net moment) to the chain. The clearance
     chain's default friction (Dahl) acts through its pre-sliding states: set here to
     where sliding at those velocities drives them (z = x_s·v_t/√(v_t² + ε²))."""
-    sc = jc.scenes.engagement("08B", 18, n_entry=2, fidelity=fidelity, settle=False)
+    sc = jc.scenes.engagement(
+        "08B", 18, n_entry=2, fidelity=fidelity, model=jc.scenes.ChainModel(settle=False)
+    )
     y = initial_state(sc)
     assert (y.bristle is None) == (fidelity == "lumped")
     rng = np.random.default_rng(0)
@@ -139,7 +141,7 @@ def test_statics_do_not_change():
     """At rest the joints do not turn, so a settled scene is the same with and without
     joint friction."""
     a = jc.scenes.engagement("08B", 18, n_entry=2)
-    b = jc.scenes.engagement("08B", 18, n_entry=2, joint_friction=None)
+    b = jc.scenes.engagement("08B", 18, n_entry=2, model=jc.scenes.ChainModel(joint_friction=None))
     assert b.joint_friction is None and a.joint_friction is not None
     np.testing.assert_allclose(np.asarray(a.q0), np.asarray(b.q0), rtol=0, atol=1e-12)
 
@@ -159,7 +161,7 @@ def test_joint_friction_holds_the_closed_drive_near_its_static_tension():
             speed_rpm=600,
             load_torque=30,
             pretension=300,
-            joint_friction=jf,
+            model=jc.scenes.ChainModel(joint_friction=jf),
         )
         sol = jc.simulate(sc, 0.2, n_save=401, max_steps=400_000)
         last = np.asarray(sol.ts) > 0.1

@@ -41,13 +41,16 @@ def test_harmonic_formula_and_mean():
         (lambda: jc.loads.Harmonic(float("nan")), "mean must be finite"),
         (lambda: jc.loads.Ramped(1.0, -1.0), "duration must be >= 0 s"),
         (lambda: jc.scenes.drive(load_torque=jc.contact.CoulombFriction(0.1)), "jc.loads load"),
-        (lambda: jc.scenes.drive(load_torque=CAM, load_ramp=0.1), "load_ramp applies to a number"),
+        (
+            lambda: jc.scenes.drive(load_torque=CAM, model=jc.scenes.ChainModel(load_ramp=0.1)),
+            "load_ramp applies to a number",
+        ),
         (
             lambda: jc.scenes.drive(
                 teeth=(18, 36, 27),
                 centres=((0.0, 0.0), (0.22, 0.03), (0.09, 0.17)),
                 load_torque=(CAM, 1.0),
-                load_ramp=0.1,
+                model=jc.scenes.ChainModel(load_ramp=0.1),
             ),
             "load_ramp applies to a number",
         ),
@@ -194,8 +197,8 @@ def test_load_counts_in_the_running_direction():
 
 def test_number_loads_stack():
     """Builders turn numbers into one load type whatever the ramp, so such scenes stack."""
-    a = jc.scenes.drive("08B", load_torque=5.0, settle=False, **FREE)
-    b = jc.scenes.drive("08B", load_torque=7.0, settle=False, **FREE)
+    a = jc.scenes.drive("08B", load_torque=5.0, **FREE, model=jc.scenes.ChainModel(settle=False))
+    b = jc.scenes.drive("08B", load_torque=7.0, **FREE, model=jc.scenes.ChainModel(settle=False))
     stacked = jc.scenes.stack([a, b])
     np.testing.assert_allclose(stacked.sprockets[1].load_torque, [5.0, 7.0])
     assert eqx.tree_equal(jax.tree.structure(a), jax.tree.structure(b))

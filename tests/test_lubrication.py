@@ -110,7 +110,7 @@ def strands():
     kw = dict(speed_rpm=1000.0, fidelity="clearance", n_entry=4)
     return (
         jc.scenes.engagement("08B", 18, **kw),
-        jc.scenes.engagement("08B", 18, lubrication=OIL, **kw),
+        jc.scenes.engagement("08B", 18, **kw, model=jc.scenes.ChainModel(lubrication=OIL)),
     )
 
 
@@ -142,8 +142,10 @@ def test_lubricated_strand_runs_and_the_film_takes_power(strands):
 
 def test_builders_refuse_a_film_without_clearance_joints():
     with pytest.raises(ValueError, match="lubrication.*fidelity='clearance'"):
-        jc.scenes.engagement("08B", 18, lubrication=OIL)
+        jc.scenes.engagement("08B", 18, model=jc.scenes.ChainModel(lubrication=OIL))
     with pytest.raises(ValueError, match="lubrication"):
-        jc.scenes.drive("08B", fidelity="spans", lubrication=OIL)
+        jc.scenes.drive("08B", fidelity="spans", model=jc.scenes.ChainModel(lubrication=OIL))
     with pytest.raises(TypeError, match="lubrication"):
-        jc.scenes.engagement("08B", 18, fidelity="clearance", lubrication=0.01)
+        jc.scenes.engagement(
+            "08B", 18, fidelity="clearance", model=jc.scenes.ChainModel(lubrication=0.01)
+        )

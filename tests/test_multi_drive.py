@@ -178,7 +178,9 @@ def test_two_sprocket_loop_agrees_with_closed_drive(n):
 def test_two_teeth_without_centres_is_the_two_sprocket_drive():
     """Two teeth and no centres build today's two-sprocket drive: its layout exactly."""
     chain = jc.ChainSpec.iso606("08B")
-    sc = jc.scenes.drive(chain, (18, 36), n_links=60, pretension=0.0, settle=False)
+    sc = jc.scenes.drive(
+        chain, (18, 36), n_links=60, pretension=0.0, model=jc.scenes.ChainModel(settle=False)
+    )
     lay = jc.scenes.closed_drive_layout(chain.pitch, 18, 36, n_links=60)
     np.testing.assert_array_equal(np.asarray(sc.q0[:, :2]), lay.rollers)
     np.testing.assert_array_equal(np.asarray(sc.sprockets[1].centre), [lay.centre_distance, 0])
@@ -262,8 +264,7 @@ def loop_drive():
         speed_rpm=RPM,
         load_torque=LOADS,
         pretension=PRETENSION,
-        joint_friction=None,
-        link_damping=0.02,
+        model=jc.scenes.ChainModel(joint_friction=None, link_damping=0.02),
     )
 
 

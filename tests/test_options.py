@@ -127,7 +127,9 @@ def test_fixed_step_count_with_a_traced_span():
 
 
 def test_time_span_and_save_times_are_checked():
-    scene = jc.scenes.engagement("08B", 18, n_entry=3, n_exit=2, wrap=9, settle=False)
+    scene = jc.scenes.engagement(
+        "08B", 18, n_entry=3, n_exit=2, wrap=9, model=jc.scenes.ChainModel(settle=False)
+    )
     for kwargs, match in [
         (dict(t1=0.0), r"t1 must be > t0"),
         (dict(t1=float("nan")), r"t0 and t1 must be finite"),

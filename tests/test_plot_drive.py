@@ -45,7 +45,9 @@ def closed_drive():
     Built from the unsettled layout and not simulated (a drive solve would cost this file's
     time budget on its own): only geometry matters to the snapshot.
     """
-    scene = jc.scenes.drive("08B", teeth=(18, 36), speed_rpm=RPM, n_links=100, settle=False)
+    scene = jc.scenes.drive(
+        "08B", teeth=(18, 36), speed_rpm=RPM, n_links=100, model=jc.scenes.ChainModel(settle=False)
+    )
     q0 = np.asarray(scene.q0)
     body, off = np.asarray(scene.roller_body), np.asarray(scene.roller_offset)
     c, s = np.cos(q0[body, 2]), np.sin(q0[body, 2])

@@ -54,4 +54,4 @@ def test_a_strand_sample_holds_one_peak_per_engagement(strand):
     top = jc.simulate(sc, float(sc.horizon), n_save=2).peak_contact_force
     assert max(sample["peaks_N"]) <= float(top) * (1 + 1e-9)
     with pytest.raises(ValueError, match="meshing strand"):
-        jc.design.engagement_sample(jc.scenes.drive(settle=False))
+        jc.design.engagement_sample(jc.scenes.drive(model=jc.scenes.ChainModel(settle=False)))

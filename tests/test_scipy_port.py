@@ -16,7 +16,9 @@ from jaxchain._dynamics import initial_state
 @pytest.fixture(scope="module")
 def scene():
     # the port is of the frictionless-joint field
-    return jc.scenes.engagement("08B", 18, speed_rpm=1000, joint_friction=None)
+    return jc.scenes.engagement(
+        "08B", 18, speed_rpm=1000, model=jc.scenes.ChainModel(joint_friction=None)
+    )
 
 
 def test_gap_geometry_matches(scene):

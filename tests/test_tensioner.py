@@ -157,8 +157,7 @@ def test_catenary_sag():
         speed_rpm=100.0,
         load_torque=0.0,
         pretension=30.0,
-        gravity=9.81,
-        settle=False,
+        model=jc.scenes.ChainModel(gravity=9.81, settle=False),
     )
     np.testing.assert_array_equal(raw.gravity, [0.0, -9.81])
     # settled as drive() settles it, with a shorter relaxation: the soft sag converges
@@ -193,13 +192,17 @@ def test_gravity_argument():
     """gravity: none by default (the scene unchanged), a scalar along −y, or a vector."""
     kw = dict(teeth=(9, 18), n_links=40, settle=False)
     np.testing.assert_array_equal(jc.scenes.drive(**kw).gravity, [0.0, 0.0])
-    np.testing.assert_array_equal(jc.scenes.drive(gravity=(1.0, -2.0), **kw).gravity, [1, -2])
-    eng = jc.scenes.engagement(gravity=9.81, settle=False)
+    np.testing.assert_array_equal(
+        jc.scenes.drive(**kw, model=jc.scenes.ChainModel(gravity=(1.0, -2.0))).gravity, [1, -2]
+    )
+    eng = jc.scenes.engagement(model=jc.scenes.ChainModel(gravity=9.81, settle=False))
     np.testing.assert_array_equal(eng.gravity, [0.0, -9.81])
-    np.testing.assert_array_equal(jc.scenes.engagement(settle=False).gravity, [0.0, 0.0])
+    np.testing.assert_array_equal(
+        jc.scenes.engagement(model=jc.scenes.ChainModel(settle=False)).gravity, [0.0, 0.0]
+    )
     for bad in (-1.0, (1.0, 2.0, 3.0), "down", (np.nan, 0.0)):
         with pytest.raises(ValueError, match="gravity"):
-            jc.scenes.drive(gravity=bad, **kw)
+            jc.scenes.drive(**kw, model=jc.scenes.ChainModel(gravity=bad))
 
 
 @pytest.mark.parametrize(
@@ -230,7 +233,7 @@ def test_drive_refuses_bad_shoes():
             centres=((0.0, 0.0), (0.22, 0.03), (0.09, 0.17)),
             tensioner=ten,
             take_up_sprocket=2,
-            settle=False,
+            model=jc.scenes.ChainModel(settle=False),
         )
     with pytest.raises(ValueError, match="tensioner's span"):
         jc.scenes.drive(tensioner=ten, guides=(jc.scenes.Guide(span=0),), **kw)
@@ -284,11 +287,9 @@ def test_energy_balance_with_shoes():
         speed_rpm=600,
         load_torque=0.0,
         pretension=300.0,
-        restitution=1.0,
-        link_damping=0.0,
-        joint_friction=None,
         tensioner=jc.scenes.Tensioner(span=0, friction=None),
         guides=(jc.scenes.Guide(span=1, friction=None),),
+        model=jc.scenes.ChainModel(restitution=1.0, link_damping=0.0, joint_friction=None),
     )
     err, scale = energy_balance_error(sc, 0.5 * 2 * math.pi / (600 / 60 * 2 * math.pi * 9), 2001)
     assert scale > 1e-2

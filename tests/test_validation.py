@@ -24,7 +24,9 @@ PROFILE = jc.ToothProfile.iso606(CHAIN, 18)
 SPACE = DesignSpace.iso606(CHAIN, 18)
 LO, HI = np.asarray(SPACE.lower), np.asarray(SPACE.upper)
 # a strand from its layout (no statics): building it is cheap, and nothing below solves it
-SCENE = jc.scenes.engagement("08B", 18, n_entry=3, n_exit=2, wrap=9, settle=False)
+SCENE = jc.scenes.engagement(
+    "08B", 18, n_entry=3, n_exit=2, wrap=9, model=jc.scenes.ChainModel(settle=False)
+)
 STACKED = jc.scenes.stack([SCENE, SCENE])
 Y0 = jc.initial_state(SCENE)
 PERIOD = 60.0 / (18 * 1000.0)

@@ -25,7 +25,9 @@ FLAT = np.zeros(3)
 
 def strand():
     """A strand from its layout (no statics): cheap, and nothing below solves it."""
-    return jc.scenes.engagement("08B", 18, n_entry=3, n_exit=2, wrap=9, settle=False)
+    return jc.scenes.engagement(
+        "08B", 18, n_entry=3, n_exit=2, wrap=9, model=jc.scenes.ChainModel(settle=False)
+    )
 
 
 SCENE = strand()
