@@ -446,7 +446,7 @@ def test_gradient_matches_finite_differences(e_ratio, rate, spin):
 def path_derivative_jumps(f, ts):
     """Largest change of df/dt between neighbouring samples of a fine path, over the
     largest |df/dt| on it: small for a C¹ path, O(1) at a kink."""
-    d = np.asarray(jax.vmap(jax.jacfwd(f))(jnp.asarray(ts)))
+    d = np.asarray(jax.jit(jax.vmap(jax.jacfwd(f)))(jnp.asarray(ts)))  # one program
     return np.max(np.abs(np.diff(d, axis=0))) / np.max(np.abs(d))
 
 
