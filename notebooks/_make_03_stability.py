@@ -14,7 +14,7 @@ form they are committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import BENCHMARKS, CACHE, X64, write
+from _write import BENCHMARKS, CACHE, STAMP, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -45,11 +45,12 @@ import jax
 import jaxchain as jc
 """
         + CACHE
+        + STAMP
         + BENCHMARKS
         + """from benchmarks import stability as st
 
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
-print("fast mode" if FAST else "full mode")"""
+"""
     ),
     new_markdown_cell(
         """## 1. Stability functions
@@ -132,8 +133,11 @@ Image(buf.getvalue())"""
 ]
 
 
+CHECKOUT_TEXT = """imports `benchmarks.stability` from the repository"""
+
+
 def main():
-    return write(CELLS, "03_stability.ipynb")
+    return write(CELLS, "03_stability.ipynb", checkout=CHECKOUT_TEXT)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ form they are committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import BENCHMARKS, CACHE, X64, write
+from _write import BENCHMARKS, CACHE, STAMP, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -61,10 +61,10 @@ from matplotlib.figure import Figure
 import jaxchain as jc
 """
         + CACHE
+        + STAMP
         + BENCHMARKS
         + """RESULTS = root / "benchmarks" / "results"
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
-print("fast mode" if FAST else "full mode")
 
 
 def load(name):
@@ -536,8 +536,16 @@ display(Markdown(table))"""
 ]
 
 
+CHECKOUT_TEXT = """imports `benchmarks.precision` and `benchmarks.regularization` from the repository and
+reads the committed study results in `benchmarks/results/`"""
+
+
 def main():
-    return write(CELLS, "04_speed_accuracy.ipynb")
+    return write(
+        CELLS,
+        "04_speed_accuracy.ipynb",
+        checkout=CHECKOUT_TEXT,
+    )
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ executes it in full mode, storing the outputs (the form it is committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import CACHE, X64, write
+from _write import CACHE, PLAYER, STAMP, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -50,9 +50,10 @@ import matplotlib.pyplot as plt
 import jaxchain as jc
 """
         + CACHE
+        + STAMP
         + """
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
-print("fast mode" if FAST else "full mode")"""
+"""
     ),
     new_markdown_cell(
         """## 1. The drive
@@ -251,11 +252,19 @@ print(
     ),
     new_markdown_cell(
         """## 5. Animation
-`jc.animate` draws the same frames as `plot_snapshot`, the tensioner's arm turning."""
+`jc.animate` draws the same frames as `plot_snapshot` (coloured on the whole run's force
+scale), the tensioner's arm turning; `player` (defined here) shows the GIF inline with
+matplotlib's JavaScript controls (play, step, scrub with the slider). Every 15th save of
+the three revolutions: 1.5 ms apart, the crank turning 27° (1.6 teeth) between frames, so
+the teeth seem to creep; watch the arm and the rollers' colours."""
     ),
     new_code_cell(
-        """path = jc.animate(timing, sol, "timing_drive.gif", stride=100 if FAST else 10, fps=15, dpi=60)
-print(path, path.stat().st_size // 1024, "kB")"""
+        PLAYER
+        + """
+
+
+path = jc.animate(timing, sol, "timing_drive.gif", stride=100 if FAST else 15, fps=10, dpi=60)
+player(path, fps=10)"""
     ),
     new_markdown_cell(
         """## 6. Designing on this drive

@@ -15,7 +15,7 @@ executes it in full mode, storing the outputs (the form it is committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import BENCHMARKS, CACHE, X64, write
+from _write import BENCHMARKS, CACHE, STAMP, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -58,11 +58,12 @@ import jaxchain as jc
 from jaxchain.observers import BandLevel, OrderSpectrum
 """
         + CACHE
+        + STAMP
         + BENCHMARKS
         + """from benchmarks import quiet_drive as qd
 
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
-print("fast mode" if FAST else "full mode")"""
+"""
     ),
     new_markdown_cell(
         """## 1. Order lines inside the solve
@@ -254,8 +255,12 @@ roller play above."""
 ]
 
 
+CHECKOUT_TEXT = """imports `benchmarks.quiet_drive` from the repository and reads the committed study
+results in `benchmarks/results/`"""
+
+
 def main():
-    return write(CELLS, "06_quiet_drive.ipynb")
+    return write(CELLS, "06_quiet_drive.ipynb", checkout=CHECKOUT_TEXT)
 
 
 if __name__ == "__main__":

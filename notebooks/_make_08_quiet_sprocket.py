@@ -16,7 +16,7 @@ executes it in full mode, storing the outputs (the form it is committed in).
 
 from nbformat.v4 import new_code_cell, new_markdown_cell
 
-from _write import CACHE, X64, write
+from _write import CACHE, STAMP, X64, write
 
 CELLS = [
     new_markdown_cell(
@@ -59,9 +59,9 @@ import numpy as np
 import jaxchain as jc
 """
         + CACHE
+        + STAMP
         + """
 FAST = os.environ.get("JAXCHAIN_FAST") == "1"
-print("fast mode" if FAST else "full mode")
 SAVES = 200 if FAST else 600  # saved states of the lumped-chain solves of section 3
 ROOT = Path(jc.__file__).resolve().parents[1]  # the repository: its optimize/ and results
 if str(ROOT) not in sys.path:
@@ -294,8 +294,12 @@ The study's section in `benchmarks/README.md` (`optimize_quiet`) gives every int
 ]
 
 
+CHECKOUT_TEXT = """imports `optimize.quiet` from the repository and reads the committed run in
+`benchmarks/results/optimize_quiet/`"""
+
+
 def main():
-    return write(CELLS, "08_quiet_sprocket.ipynb")
+    return write(CELLS, "08_quiet_sprocket.ipynb", checkout=CHECKOUT_TEXT)
 
 
 if __name__ == "__main__":
