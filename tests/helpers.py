@@ -53,6 +53,27 @@ def count_vector_field_calls(monkeypatch):
     return count_calls(monkeypatch, S, "forces")
 
 
+def count_objective_traces(monkeypatch):
+    """A list that grows by one each time a design objective's program traces a member
+    (``_member``, which every objective program calls first): a retrace of the objective
+    counts even where the solve inside it comes from JAX's cache of traces, which
+    :func:`count_vector_field_calls` does not see."""
+    import jaxchain._design.objective as O
+
+    return count_calls(monkeypatch, O, "_member")
+
+
+def own_program_store(monkeypatch, folder):
+    """Point jaxchain's store of traced programs (jaxchain/_programs.py) at ``folder``, an
+    empty folder of the test's own, for what the test calls next. The store conftest.py
+    turns on is shared by every run: a program an earlier run wrote is read back there
+    without tracing, so a call that should have reused this process's program but got a
+    new one (a retrace) would go unseen from the second run on. With a store of its own
+    such a call traces, and the trace counters see it; a call that reuses a program this
+    process already holds (in memory, whichever folder) costs nothing."""
+    monkeypatch.setenv("JAXCHAIN_PROGRAM_STORE", str(folder))
+
+
 def fixed_step_joints():
     """Joint friction for fixed-step solves of a few µs: the nominal μ, its creep band
     widened from 2 mm/s to 20 mm/s (the nominal band sticks over ~1 µs, which an explicit

@@ -153,3 +153,23 @@ def test_lumped_chain_takes_a_dahl_law():
     assert float(f0.joint_friction_power) == 0.0
     rates = forces(0.0, y._replace(bristle=jnp.full_like(y.bristle, 5e-6)), sc).bristle_rate
     assert rates.shape == y.bristle.shape and np.all(np.isfinite(np.asarray(rates)))
+
+
+@pytest.mark.slow
+def test_dahl_costs_the_frictionless_chains_steps():
+    """docs/figures.md and README: in the clearance chain the Dahl law costs the
+    frictionless chain's steps, 0.73–1.03× (benchmarks/joint_friction.py, 100–3000 rpm):
+    its strand (08B, z = 18, 1000 N, 8 entry links) at 3000 rpm over two tooth periods,
+    simulate's defaults. Measured 5250 against 5378 steps (0.98×; the study: 0.91×);
+    the velocity-regularized law takes 8.6× there (the study's, not solved here: 48 000
+    steps)."""
+    rpm = 3000.0
+    kw = dict(speed_rpm=rpm, tension=1000.0, fidelity="clearance", n_entry=8)
+    steps = {}
+    for name, law in (("frictionless", None), ("dahl", DAHL)):
+        sc = jc.scenes.engagement("08B", 18, joint_friction=law, **kw)
+        sol = jc.simulate(sc, 2 * 60.0 / (18 * rpm), n_save=2)
+        assert sol.ok, sol.message
+        steps[name] = int(sol.stats["num_steps"])
+    ratio = steps["dahl"] / steps["frictionless"]
+    assert 0.73 <= ratio <= 1.03, steps

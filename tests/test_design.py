@@ -14,7 +14,12 @@ import pytest
 import jaxchain as jc
 from jaxchain.design import DesignSpace, ProfileObjective, soft_peak_force, window_weight
 
-from helpers import count_vector_field_calls, fixed_step_joints
+from helpers import (
+    count_objective_traces,
+    count_vector_field_calls,
+    fixed_step_joints,
+    own_program_store,
+)
 
 CHAIN = jc.ChainSpec.iso606("08B")
 Z, RPM = 18, 1000.0
@@ -436,12 +441,17 @@ def test_a_failed_member_is_never_a_value():
     assert np.isnan(float(value)) and jc.result_names(out.result) == ["diverged"]
 
 
-def test_second_call_does_not_retrace(short_objective, monkeypatch):
+def test_second_call_does_not_retrace(short_objective, monkeypatch, tmp_path):
+    """A new design point (new profile, new scenes) reuses the first point's program:
+    nothing traced (against a program store of its own, which a retraced program stored
+    by another run cannot hide in)."""
     calls = count_vector_field_calls(monkeypatch)
+    members = count_objective_traces(monkeypatch)
     short_objective.value_and_grad(jnp.array([0.1, 0.1, 0.1, 0.1]))
-    n = len(calls)
+    own_program_store(monkeypatch, tmp_path)
+    n, m = len(calls), len(members)
     short_objective.value_and_grad(jnp.array([0.4, -0.2, 0.1, 0.3]))  # new profile, new scenes
-    assert len(calls) == n
+    assert (len(calls), len(members)) == (n, m)
 
 
 # ------------------------------------------------------------------ gradient blow-up

@@ -15,7 +15,13 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
-from helpers import brute_parabola_max, count_vector_field_calls, fixed_step_joints, tooth_period
+from helpers import (
+    brute_parabola_max,
+    count_vector_field_calls,
+    fixed_step_joints,
+    own_program_store,
+    tooth_period,
+)
 
 
 def _with_slots(scene, slots):
@@ -110,7 +116,10 @@ def test_failures_are_values(engagement18):
         jc.simulate(engagement18, 0.0)
 
 
-def test_second_call_does_not_retrace(engagement18, monkeypatch):
+def test_second_call_does_not_retrace(engagement18, monkeypatch, tmp_path):
+    """A new speed and end time reuse the first call's program: the second call traces
+    nothing (checked against a program store of its own: a retraced program another run
+    stored would be read back unseen)."""
     calls = count_vector_field_calls(monkeypatch)
     T = tooth_period(1000, 18)
     sc2 = jax.tree_util.tree_map(lambda x: x, engagement18)
@@ -118,6 +127,7 @@ def test_second_call_does_not_retrace(engagement18, monkeypatch):
     # (weakly typed on purpose: simulate canonicalizes dtypes so this does not retrace)
     # default options: the solve test_peak_force_self_converges compiles
     jc.simulate(engagement18, 0.2 * T)
+    own_program_store(monkeypatch, tmp_path)
     n = len(calls)
     jc.simulate(sc2, 0.3 * T)  # new speed, new t1: same structure
     assert len(calls) == n

@@ -14,7 +14,7 @@ from scipy import stats
 
 import jaxchain as jc
 
-from helpers import count_vector_field_calls, tooth_period
+from helpers import count_vector_field_calls, own_program_store, tooth_period
 
 # ---------------------------------------------------------------------------- statistics
 
@@ -260,7 +260,7 @@ def test_event_logic_vmaps_over_members():
 
 
 # ---------------------------------------------------------------------------- on a solve
-def test_engagements_of_the_strand(monkeypatch):
+def test_engagements_of_the_strand(monkeypatch, tmp_path):
     """The lumped strand over two tooth periods: one event per roller that meshed (not
     touching at t0, its window closed by t1), onset at its saved threshold crossing, each
     peak at most the solve's peak record and at least the saved trace's maximum in its
@@ -299,6 +299,7 @@ def test_engagements_of_the_strand(monkeypatch):
     # read back: the same solve saving 300 times ±1.5 µs around each peak (same shapes,
     # another window: no retrace), its top in each window against the event's peak
     calls = count_vector_field_calls(monkeypatch)
+    own_program_store(monkeypatch, tmp_path)  # where a retraced program cannot hide
     fine = [tp + np.linspace(-1.5e-6, 1.5e-6, 300) for tp in eng.t_peak]
     ts2 = np.sort(np.concatenate([np.linspace(0.0, t1, n_save - 300 * len(eng)), *fine]))
     obs2 = jc.observers.EngagementPeaks(window=0.4)
@@ -321,13 +322,20 @@ def test_engagements_of_the_strand(monkeypatch):
 
 def test_capacity_for_a_closed_drive():
     """A roller meshes with each sprocket of a closed drive once per loop pass: the sized
-    observer holds every pass over t1 (the driver takes z·ω/2π rollers a second, the
-    faster sprocket here), with a margin for a driven sprocket running fast."""
-    scene = jc.scenes.drive("08B", (18, 36), settle=False)
+    observer holds every pass over t1, with a margin for a driven sprocket running fast.
+    Counted by hand: at 1000 rpm an 18-tooth driver moves the chain 18 · 1000/60 = 300
+    pitches a second, so each roller of a 60-link loop comes round 5 times a second, 2.5
+    times in 0.5 s: at most 3 passes begin in [0, t1], and a fourth may be under way at
+    t0; the 25 % margin makes the 2.5 passes 3.125, so 4 + 1."""
+    scene = jc.scenes.drive("08B", (18, 36), n_links=60, speed_rpm=1000.0, settle=False)
     t1 = 0.5
     obs = jc.observers.EngagementPeaks.for_solve(scene, t1, window=0.3)
-    passes = t1 * float(scene.sprockets[0].speed) * 18 / (2 * math.pi) / scene.n_rollers
-    assert obs.capacity == math.ceil(1.25 * passes) + 1 and obs.capacity >= 3
+    assert obs.capacity == 5
+    assert jc.observers.EngagementPeaks.for_solve(scene, t1, margin=1.0).capacity == 4
+    # the driven sprocket (36 teeth at 500 rpm) takes the rollers at the same rate: a
+    # drive with it as the driver sizes alike
+    driven = jc.scenes.drive("08B", (36, 18), n_links=60, speed_rpm=500.0, settle=False)
+    assert jc.observers.EngagementPeaks.for_solve(driven, t1, window=0.3).capacity == 5
     assert float(obs.window) == 0.3 and obs.samples == 4
     with pytest.raises(ValueError, match="t1"):
         jc.observers.EngagementPeaks.for_solve(scene, 0.0)
