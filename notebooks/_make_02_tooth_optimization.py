@@ -108,8 +108,7 @@ def build(profile):
             speed_rpm=rpm * f,
             profile=profile,
             n_entry=3,
-            roller_contact=design_law,
-            joint_friction=design_joints,
+            model=jc.scenes.ChainModel(roller_contact=design_law, joint_friction=design_joints),
         )
         for f in SPEEDS
     ]
@@ -146,7 +145,9 @@ u_min = space.coordinates(forms["min"])  # the minimum form (a millionth of each
 at_min = float(objective.value_and_grad(u_min)[0])
 print(f"objective at the ISO minimum form: {at_min:.1f} N")
 for name, frac, end in zip(jc.design.PARAMETERS, space.fraction(u_best), space.fraction(u_min)):
-    print(f"{name:15s} at {100 * float(frac):5.1f} % of its ISO range (minimum form: {100 * float(end):.0f} %)")
+    print(
+        f"{name:15s} at {100 * float(frac):5.1f} % of its ISO range (minimum form: {100 * float(end):.0f} %)"
+    )
 
 fig, ax = plt.subplots(1, 2, figsize=(12, 3.8))
 ax[0].plot([h[1] for h in history], "o-", label="Adam")

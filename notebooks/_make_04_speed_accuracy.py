@@ -349,7 +349,9 @@ outputs)."""
     new_code_cell(
         """period = 60.0 / 1000.0 / 18  # tooth period at 1000 rpm, z = 18 [s]
 if FAST:  # a short strand from its layout: nothing to settle, small compile
-    scene = jc.scenes.engagement("08B", 18, n_entry=3, n_exit=2, wrap=9, settle=False)
+    scene = jc.scenes.engagement(
+        "08B", 18, n_entry=3, n_exit=2, wrap=9, model=jc.scenes.ChainModel(settle=False)
+    )
     t1, solvers, rtols = 0.3 * period, ["Bosh3", "Tsit5"], [1e-3, 1e-5]
     ref_solver, ref_rtol, repeats = "Tsit5", 1e-9, 1
 else:

@@ -80,7 +80,8 @@ timing = jc.scenes.drive(
     pretension=150.0,  # the tensioner's span at rest [N]
     tensioner=jc.scenes.Tensioner(span=0, shoe_radius=0.12, deflection=0.015, damping=0.02),
     guides=(jc.scenes.Guide(span=2, length=0.12),),
-    settle=not FAST,  # fast mode: the layout as built (settling takes ~10 s)
+    # fast mode: the layout as built (settling takes ~10 s)
+    model=jc.scenes.ChainModel(settle=not FAST),
 )
 print(
     f"built{'' if FAST else ' and settled'} in {time.perf_counter() - start:.1f} s: {timing.n_links} links"
@@ -287,7 +288,7 @@ build = lambda p: jc.scenes.drive(
     speed_rpm=rpm, load_torque=2.0, pretension=150.0,
     tensioner=jc.scenes.Tensioner(span=0, shoe_radius=0.12, deflection=0.015, damping=0.02),
     guides=(jc.scenes.Guide(span=2, length=0.12),),
-    profiles=(crank, p, cam), roller_contact=law, joint_friction=joints,
+    profiles=(crank, p, cam), model=jc.scenes.ChainModel(roller_contact=law, joint_friction=joints),
 )
 objective = ProfileObjective(
     DesignSpace.iso606(chain, 42), build, t1=1e-4, temperature=20.0, reference=300.0,

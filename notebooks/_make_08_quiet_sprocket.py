@@ -176,7 +176,8 @@ print(
 def at_rest(cushion, wear):
     # the settled strand's first saved state (as many saves as the solve below: one
     # compiled solve serves both)
-    scene = jc.scenes.engagement(chain, 18, profile=tooth, cushion=cushion, elongation=wear)
+    model = jc.scenes.ChainModel(cushion=cushion, elongation=wear)
+    scene = jc.scenes.engagement(chain, 18, profile=tooth, model=model)
     return jc.simulate(scene, 1e-7, n_save=SAVES)
 
 
@@ -199,7 +200,8 @@ and the link's plate edge as the segment that presses on it; beside it, that lin
 force and its two rollers' tooth forces over time."""
     ),
     new_code_cell(
-        """scene = jc.scenes.engagement(chain, 18, profile=tooth, cushion=ring, speed_rpm=1000.0)
+        """ringed = jc.scenes.ChainModel(cushion=ring)
+scene = jc.scenes.engagement(chain, 18, profile=tooth, speed_rpm=1000.0, model=ringed)
 period = 60 / (18 * 1000.0)
 sol = jc.simulate(scene, (1.0 if FAST else 2.0) * period, n_save=SAVES)
 el = [e for e in scene.elements if isinstance(e, jc.elements.CushionContacts)][0]

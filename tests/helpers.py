@@ -20,8 +20,13 @@ def brute_parabola_max(f0, fm, f1, n=2001):
     """Max of the parabola through samples (f0, fm, f1) at s = −1, 0, 1 over s ∈ [−1, 1], by
     brute force on an ``n``-point grid; elementwise over arrays of any (equal) shape."""
     f0, fm, f1 = (np.asarray(x, dtype=float) for x in (f0, fm, f1))
-    s = np.linspace(-1.0, 1.0, n).reshape((n,) + (1,) * fm.ndim)
-    return (fm + 0.5 * (f1 - f0) * s + (0.5 * (f0 + f1) - fm) * s**2).max(axis=0)
+    b, c = 0.5 * (f1 - f0), 0.5 * (f0 + f1) - fm
+    grid = np.linspace(-1.0, 1.0, n)
+    out = np.full(fm.shape, -np.inf)
+    for i in range(0, n, 64):  # 64 grid points at a time: no (n, ...) temporary
+        s = grid[i : i + 64].reshape((-1,) + (1,) * fm.ndim)
+        np.maximum(out, (fm + b * s + c * s**2).max(axis=0), out=out)
+    return out
 
 
 def tree_allclose(a, b, rtol=1e-7, atol=0.0):

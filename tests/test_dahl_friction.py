@@ -120,33 +120,42 @@ def test_builders_default_by_fidelity():
     """``joint_friction="default"``: Coulomb (stateless) in the lumped chain, Dahl in the
     clearance chain, one state per pin/bush and per bush/roller joint; an explicit law is
     taken as given; anything else is refused."""
-    lumped = jc.scenes.engagement("08B", 18, n_entry=2, settle=False)
+    lumped = jc.scenes.engagement("08B", 18, n_entry=2, model=jc.scenes.ChainModel(settle=False))
     assert lumped.joint_friction.law == jc.scenes.JOINT_FRICTION
     assert initial_state(lumped).bristle is None
-    sc = jc.scenes.engagement("08B", 18, n_entry=2, fidelity="clearance", settle=False)
+    sc = jc.scenes.engagement(
+        "08B", 18, n_entry=2, fidelity="clearance", model=jc.scenes.ChainModel(settle=False)
+    )
     layout = bristle_layout(sc)
     assert [(k, g) for k, g, _, _ in layout] == [("pairs", 0), ("pairs", 1)]
     assert sum(c for *_, c in layout) == np.shape(sc.pairs[0].a)[0] + sc.n_rollers
     y = initial_state(sc)
     assert y.bristle.shape == (sum(c for *_, c in layout),) and not np.any(y.bristle)
     coulomb = jc.scenes.engagement(
-        "08B", 18, n_entry=2, fidelity="clearance", settle=False,
-        joint_friction=jc.scenes.JOINT_FRICTION,
-    )  # fmt: skip
+        "08B",
+        18,
+        n_entry=2,
+        fidelity="clearance",
+        model=jc.scenes.ChainModel(settle=False, joint_friction=jc.scenes.JOINT_FRICTION),
+    )
     assert initial_state(coulomb).bristle is None
     with pytest.raises(TypeError, match="DahlFriction"):
-        jc.scenes.engagement("08B", 18, n_entry=2, joint_friction="coulomb")
+        jc.scenes.engagement(
+            "08B", 18, n_entry=2, model=jc.scenes.ChainModel(joint_friction="coulomb")
+        )
 
 
 def test_lumped_chain_takes_a_dahl_law():
     """The lumped chain's joints accept a Dahl law too (one state per joint): at rest with
     relaxed bristles it adds nothing (the statics hold), and its states move."""
-    sc = jc.scenes.engagement("08B", 18, n_entry=2, joint_friction=DAHL)
+    sc = jc.scenes.engagement("08B", 18, n_entry=2, model=jc.scenes.ChainModel(joint_friction=DAHL))
     y = initial_state(sc)
     y = y._replace(v=jnp.zeros_like(y.v))  # at rest
     assert y.bristle.shape == (np.shape(sc.joint_friction.joint)[0],)
     f0 = forces(0.0, y, sc)
-    frictionless = jc.scenes.engagement("08B", 18, n_entry=2, joint_friction=None)
+    frictionless = jc.scenes.engagement(
+        "08B", 18, n_entry=2, model=jc.scenes.ChainModel(joint_friction=None)
+    )
     np.testing.assert_allclose(
         np.asarray(f0.body), np.asarray(forces(0.0, y._replace(bristle=None), frictionless).body)
     )
@@ -167,7 +176,7 @@ def test_dahl_costs_the_frictionless_chains_steps():
     kw = dict(speed_rpm=rpm, tension=1000.0, fidelity="clearance", n_entry=8)
     steps = {}
     for name, law in (("frictionless", None), ("dahl", DAHL)):
-        sc = jc.scenes.engagement("08B", 18, joint_friction=law, **kw)
+        sc = jc.scenes.engagement("08B", 18, **kw, model=jc.scenes.ChainModel(joint_friction=law))
         sol = jc.simulate(sc, 2 * 60.0 / (18 * rpm), n_save=2)
         assert sol.ok, sol.message
         steps[name] = int(sol.stats["num_steps"])

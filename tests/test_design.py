@@ -42,8 +42,7 @@ def _build(profile, law=DESIGN_LAW):
         speed_rpm=RPM,
         profile=profile,
         n_entry=3,
-        roller_contact=law,
-        joint_friction=DESIGN_JOINTS,
+        model=jc.scenes.ChainModel(roller_contact=law, joint_friction=DESIGN_JOINTS),
     )
 
 

@@ -327,14 +327,18 @@ def test_capacity_for_a_closed_drive():
     pitches a second, so each roller of a 60-link loop comes round 5 times a second, 2.5
     times in 0.5 s: at most 3 passes begin in [0, t1], and a fourth may be under way at
     t0; the 25 % margin makes the 2.5 passes 3.125, so 4 + 1."""
-    scene = jc.scenes.drive("08B", (18, 36), n_links=60, speed_rpm=1000.0, settle=False)
+    scene = jc.scenes.drive(
+        "08B", (18, 36), n_links=60, speed_rpm=1000.0, model=jc.scenes.ChainModel(settle=False)
+    )
     t1 = 0.5
     obs = jc.observers.EngagementPeaks.for_solve(scene, t1, window=0.3)
     assert obs.capacity == 5
     assert jc.observers.EngagementPeaks.for_solve(scene, t1, margin=1.0).capacity == 4
     # the driven sprocket (36 teeth at 500 rpm) takes the rollers at the same rate: a
     # drive with it as the driver sizes alike
-    driven = jc.scenes.drive("08B", (36, 18), n_links=60, speed_rpm=500.0, settle=False)
+    driven = jc.scenes.drive(
+        "08B", (36, 18), n_links=60, speed_rpm=500.0, model=jc.scenes.ChainModel(settle=False)
+    )
     assert jc.observers.EngagementPeaks.for_solve(driven, t1, window=0.3).capacity == 5
     assert float(obs.window) == 0.3 and obs.samples == 4
     with pytest.raises(ValueError, match="t1"):

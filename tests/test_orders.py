@@ -186,10 +186,14 @@ def test_order_observers_refuse_bad_input():
     with pytest.raises(ValueError, match="no integer order"):
         BandLevel.mesh_band(18, 0.0, 1.0, band=(0.51, 0.52))
     with pytest.raises(TypeError, match="observers"):
-        jc.simulate(jc.scenes.engagement(CHAIN, Z, n_entry=2, settle=False), 1e-4, observers=(1,))
+        jc.simulate(
+            jc.scenes.engagement(CHAIN, Z, n_entry=2, model=jc.scenes.ChainModel(settle=False)),
+            1e-4,
+            observers=(1,),
+        )
     with pytest.raises(TypeError, match="integral observer"):
         Penalized(BandLevel([18.0], 0.0, 1.0), "peak", limit=1.0)
-    scene = jc.scenes.engagement(CHAIN, Z, n_entry=2, settle=False)
+    scene = jc.scenes.engagement(CHAIN, Z, n_entry=2, model=jc.scenes.ChainModel(settle=False))
     with pytest.raises(ValueError, match="sprocket=1 but the scene has 1"):
         jc.simulate(scene, 1e-4, observers=(SpeedVariation(0.0, 0.01, sprocket=1),))
 
@@ -201,9 +205,13 @@ JOINTS = fixed_step_joints()
 
 def _build(profile, rpm=RPM):
     return jc.scenes.engagement(
-        CHAIN, Z, speed_rpm=rpm, profile=profile, n_entry=3, roller_contact=LAW,
-        joint_friction=JOINTS,
-    )  # fmt: skip
+        CHAIN,
+        Z,
+        speed_rpm=rpm,
+        profile=profile,
+        n_entry=3,
+        model=jc.scenes.ChainModel(roller_contact=LAW, joint_friction=JOINTS),
+    )
 
 
 def _per_gap_space():

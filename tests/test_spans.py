@@ -99,9 +99,14 @@ def test_the_tensioner_shoe_is_laid_out_as_in_the_lumped_chain():
     the wrap) is the shoe's lever (t_in − t_out)·∂c/∂ψ."""
     spans = tensioned()
     lumped = jc.scenes.drive(
-        CHAIN, teeth=(18, 36), centres=((0.0, 0.0), (0.33, 0.0)), load_torque=20.0,
-        pretension=200.0, tensioner=jc.scenes.Tensioner(span=0, damping=0.5), settle=False,
-    )  # fmt: skip
+        CHAIN,
+        teeth=(18, 36),
+        centres=((0.0, 0.0), (0.33, 0.0)),
+        load_torque=20.0,
+        pretension=200.0,
+        tensioner=jc.scenes.Tensioner(span=0, damping=0.5),
+        model=jc.scenes.ChainModel(settle=False),
+    )
     for name in ("pivot", "layout_angle", "preload", "stiffness", "inertia", "damping"):
         np.testing.assert_allclose(
             getattr(spans.tensioners, name), getattr(lumped.tensioners, name), rtol=1e-12

@@ -126,7 +126,8 @@ def drive(
             rings); default ``ChainModel()``.
 
     Older keywords: each field of :class:`~jaxchain.scenes.ChainModel` is still taken as
-    a keyword (``restitution=0.5`` for ``model=ChainModel(restitution=0.5)``), and
+    a keyword (``restitution=0.5`` for ``model=ChainModel(restitution=0.5)``), with a
+    ``DeprecationWarning`` naming that spelling; and
     ``driven_inertia`` [kg·m²], of every driven sprocket or one per driven sprocket
     (default a steel disc of the pitch diameter; ``SprocketSpec.inertia`` in a
     :class:`~jaxchain.scenes.DriveSpec`).

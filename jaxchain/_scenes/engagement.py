@@ -69,8 +69,9 @@ def engagement(
 
     ``model`` (a :class:`~jaxchain.scenes.ChainModel`, default ``ChainModel()``) sets how
     the chain and its contacts are modelled, as in :func:`~jaxchain.scenes.drive`; its
-    fields are still taken as keywords. Its ``elongation`` is the chain's wear: a worn
-    chain rides higher in the gaps, the more so the further a roller is along the wrap.
+    fields are still taken as keywords, with a ``DeprecationWarning``. Its ``elongation``
+    is the chain's wear: a worn chain rides higher in the gaps, the more so the further a
+    roller is along the wrap.
     Its ``cushion`` is one :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>`
     on the sprocket (or None); its link plates press on it, in the settled start too (08B
     on 18 teeth: seated plate edges at ≈ 30.1 mm from the axis); a drive's ``load_ramp``

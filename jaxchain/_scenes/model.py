@@ -190,8 +190,8 @@ def model_of(caller: str, model: ChainModel | None, older: dict) -> ChainModel:
     return model.replace(**older)
 
 
-#: whether the older keywords warn (they work either way)
-WARN = False
+#: whether the older keywords warn (they build the same scene either way)
+WARN = True
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(ChainModel)}
 
 
