@@ -151,7 +151,8 @@ def test_bad_input():
     # a bush chain has no roller to put on a bush/roller joint
     for build in (jc.scenes.engagement, jc.scenes.drive):
         with pytest.raises(ValueError, match=r"bush chain .*no roller to put on a bush/roller"):
-            build("04C", rollers_on_bush="joint", fidelity="clearance", settle=False)
+            model = jc.scenes.ChainModel(rollers_on_bush="joint", settle=False)
+            build("04C", fidelity="clearance", model=model)
     with pytest.raises(ValueError, match=r"rollers_on_bush must be one of"):
         jc.scenes.engagement(
             "06C", model=jc.scenes.ChainModel(rollers_on_bush="bush", settle=False)

@@ -8,7 +8,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
-from helpers import tooth_period
+from helpers import modelled, tooth_period
 
 
 @pytest.mark.parametrize("rollers", ["joint", "lumped"])
@@ -25,7 +25,7 @@ def test_clearance_drive_settles(rollers):
         fidelity="clearance",
         rollers_on_bush=rollers,
     )
-    sc = jc.scenes.drive("08B", **kw)
+    sc = jc.scenes.drive("08B", **modelled(**kw))
     y = initial_state(sc)
     y = y._replace(v=jnp.zeros_like(y.v), omega=jnp.zeros_like(y.omega))
     fr = forces(0.0, y, sc)
@@ -33,7 +33,7 @@ def test_clearance_drive_settles(rollers):
     assert float(jnp.max(jnp.abs(fr.body[:, :2]))) <= 1e-6 * force_scale
     np.testing.assert_allclose(float(fr.sprocket_torque[1]), 10.0, rtol=1e-6)
     # every pin/bush joint carries tension; spans: tight − slack = load / R2
-    layout = jc.scenes.drive("08B", **kw, model=jc.scenes.ChainModel(settle=False))
+    layout = jc.scenes.drive("08B", **modelled(**kw, model=jc.scenes.ChainModel(settle=False)))
     moved = np.abs(np.asarray(sc.q0[:, :2] - layout.q0[:, :2])).max()
     assert moved < 0.1 * 0.0127
     tension = np.asarray(fr.element_tension)

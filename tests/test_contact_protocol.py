@@ -10,7 +10,7 @@ import numpy as np
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
-from helpers import FREE_DRIVE, energy_balance_error, tooth_period
+from helpers import FREE_DRIVE, energy_balance_error, modelled, tooth_period
 
 
 class Quadratic(jc.contact.AbstractContactLaw):
@@ -30,7 +30,9 @@ def test_a_normal_law_of_its_own_keeps_the_energy_and_settles():
     law = Quadratic(jnp.asarray(1e13))
     np.testing.assert_allclose(law.potential(jnp.asarray(2e-5)), 1e13 * 8e-15 / 3, rtol=1e-12)
     np.testing.assert_allclose(law.potential(jnp.asarray(-1e-6)), 0.0, atol=0)
-    scene = jc.scenes.drive("08B", **FREE_DRIVE, model=jc.scenes.ChainModel(roller_contact=law))
+    scene = jc.scenes.drive(
+        "08B", **modelled(**FREE_DRIVE, model=jc.scenes.ChainModel(roller_contact=law))
+    )
     assert isinstance(scene.roller_law, Quadratic)
     err, scale = energy_balance_error(scene, 0.5 * tooth_period(600, 9), 8001)
     assert scale > 1e-3

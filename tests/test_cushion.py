@@ -18,7 +18,7 @@ from jaxchain._dynamics import DriveState, forces, initial_state
 from jaxchain._scenes.build import assemble, chain_bodies, roller_law
 from jaxchain._scenes.statics import equilibrate
 
-from helpers import central_fd, fixed_step_joints, tooth_period
+from helpers import central_fd, fixed_step_joints, modelled, tooth_period
 
 CHAIN = jc.ChainSpec.iso606("08B")
 Z, RPM = 18, 1000.0
@@ -349,7 +349,9 @@ def test_drive_rings_press_on_the_side_facing_each_sprocket():
         load_torque=(0.0, 15.0),
         pretension=150.0,
     )
-    scene = jc.scenes.drive("08B", **kw, model=jc.scenes.ChainModel(settle=False, cushion=rings))
+    scene = jc.scenes.drive(
+        "08B", **modelled(**kw, model=jc.scenes.ChainModel(settle=False, cushion=rings))
+    )
     el = _ring(scene)
     assert el.sprockets == (0, 1) and el.sides == (1, -1)
     depth = np.asarray(el._contacts(initial_state(scene), scene)[0])
@@ -360,7 +362,9 @@ def test_drive_rings_press_on_the_side_facing_each_sprocket():
     assert spec.arguments()["model"].cushion == rings
     assert _ring(spec.build()).sides == (1, -1)
     with pytest.raises(ValueError, match="fidelity='lumped' or 'clearance'"):
-        jc.scenes.drive("08B", fidelity="spans", **kw, model=jc.scenes.ChainModel(cushion=rings))
+        jc.scenes.drive(
+            "08B", **modelled(fidelity="spans", **kw, model=jc.scenes.ChainModel(cushion=rings))
+        )
 
 
 def test_strand_spec_carries_the_ring():

@@ -12,6 +12,8 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import bristle_layout, forces, initial_state
 
+from helpers import modelled
+
 DAHL = jc.scenes.CLEARANCE_JOINT_FRICTION
 
 
@@ -176,7 +178,9 @@ def test_dahl_costs_the_frictionless_chains_steps():
     kw = dict(speed_rpm=rpm, tension=1000.0, fidelity="clearance", n_entry=8)
     steps = {}
     for name, law in (("frictionless", None), ("dahl", DAHL)):
-        sc = jc.scenes.engagement("08B", 18, **kw, model=jc.scenes.ChainModel(joint_friction=law))
+        sc = jc.scenes.engagement(
+            "08B", 18, **modelled(**kw, model=jc.scenes.ChainModel(joint_friction=law))
+        )
         sol = jc.simulate(sc, 2 * 60.0 / (18 * rpm), n_save=2)
         assert sol.ok, sol.message
         steps[name] = int(sol.stats["num_steps"])

@@ -7,6 +7,8 @@ import pytest
 
 import jaxchain as jc
 
+from helpers import modelled
+
 pytestmark = pytest.mark.slow  # each clearance solve compiles for ~1 min
 
 
@@ -49,7 +51,9 @@ def test_span_level_drive_defaults_run(rpm):
         load_torque=(5.0, 5.0),
     )  # fmt: skip
     for kw in ({}, three, three | dict(tensioner=jc.scenes.Tensioner())):
-        sc = jc.scenes.drive("06B" if kw else "08B", speed_rpm=rpm, fidelity="spans", **kw)
+        sc = jc.scenes.drive(
+            "06B" if kw else "08B", **modelled(speed_rpm=rpm, fidelity="spans", **kw)
+        )
         sol = jc.simulate(sc, 60.0 / rpm)
         assert sol.ok, sol.message
         assert float(sol.link_tension.min()) > 0

@@ -12,7 +12,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
-from helpers import FREE_DRIVE, energy_balance_error, tooth_period
+from helpers import FREE_DRIVE, energy_balance_error, modelled, tooth_period
 
 
 class SlideIdler(jc.elements.AbstractElement):
@@ -111,7 +111,7 @@ def _idler(scene, *, damping=0.0, preload=10.0):
 
 @pytest.fixture(scope="module")
 def free_drive():
-    return jc.scenes.drive("08B", **FREE_DRIVE)
+    return jc.scenes.drive("08B", **modelled(**FREE_DRIVE))
 
 
 def test_the_idler_moves_and_keeps_the_energy_balance(free_drive):

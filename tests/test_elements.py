@@ -11,7 +11,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import effects, forces, initial_state
 
-from helpers import FREE_DRIVE, energy_balance_error, tooth_period
+from helpers import FREE_DRIVE, energy_balance_error, modelled, tooth_period
 
 
 class Tether(jc.elements.AbstractElement):
@@ -53,7 +53,7 @@ FREE = FREE_DRIVE
 
 @pytest.fixture(scope="module")
 def free_drive():
-    return jc.scenes.drive("08B", **FREE)
+    return jc.scenes.drive("08B", **modelled(**FREE))
 
 
 def _tether(scene, k, c, a=3, b=10):

@@ -27,7 +27,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._solve.ensemble import _group_cost, _padded, _plan
 
-from helpers import count_vector_field_calls, fixed_step_joints
+from helpers import count_vector_field_calls, fixed_step_joints, modelled
 
 ROOT = Path(__file__).resolve().parents[1]
 SPEEDS = np.array([300.0, 800.0, 1400.0, 2000.0])  # rpm
@@ -45,7 +45,7 @@ def strand(rpm, teeth=9, **kw):
     # fixed steps of up to 5 µs: the joint friction's creep band widened to follow them
     kw = {"wrap": 4, "n_entry": 3, "n_exit": 2, "settle": False, **kw}
     kw.setdefault("joint_friction", fixed_step_joints())
-    return jc.scenes.engagement("08B", teeth, speed_rpm=rpm, **kw)
+    return jc.scenes.engagement("08B", teeth, **modelled(speed_rpm=rpm, **kw))
 
 
 @pytest.fixture(scope="module")

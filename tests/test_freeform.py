@@ -17,6 +17,8 @@ from scipy.spatial import cKDTree
 import jaxchain as jc
 from jaxchain._profiles.freeform_shape import with_table
 
+from helpers import modelled
+
 CH = jc.ChainSpec.iso606("08B")
 Z = 18
 ISO = jc.ToothProfile.iso606(CH, Z, "mid")
@@ -525,20 +527,23 @@ def test_scenes_read_free_form_sprockets(fidelity):
     in both fidelities, and (lumped) a drive mixing a free-form driver, z = 18, with an
     ISO driven sprocket, z = 36, in one vmapped contact; a per-gap pattern's is finite."""
     kw = dict(speed_rpm=600, fidelity=fidelity, settle=False)
-    iso = jc.scenes.engagement(CH, Z, **kw, model=jc.scenes.ChainModel(form="mid"))
-    ff = jc.scenes.engagement(CH, Z, profile=jc.FreeformProfile.from_iso(ISO, 3), **kw)
+    iso = jc.scenes.engagement(CH, Z, **modelled(**kw, model=jc.scenes.ChainModel(form="mid")))
+    ff = jc.scenes.engagement(CH, Z, **modelled(profile=jc.FreeformProfile.from_iso(ISO, 3), **kw))
     _same_field(iso, ff, 1e-9)
     if fidelity != "lumped":
         return
     z2 = jc.ToothProfile.iso606(CH, 36, "mid")
     d_iso = jc.scenes.drive(
-        CH, teeth=(Z, 36), n_links=60, **kw, model=jc.scenes.ChainModel(form="mid")
+        CH, **modelled(teeth=(Z, 36), n_links=60, **kw, model=jc.scenes.ChainModel(form="mid"))
     )
     d_ff = jc.scenes.drive(
-        CH, teeth=(Z, 36), n_links=60, profiles=(jc.FreeformProfile.from_iso(ISO, 2), z2), **kw
+        CH,
+        **modelled(
+            teeth=(Z, 36), n_links=60, profiles=(jc.FreeformProfile.from_iso(ISO, 2), z2), **kw
+        ),
     )
     _same_field(d_iso, d_ff, 1e-9)
-    pat = jc.scenes.engagement(CH, Z, profile=pattern(np.random.default_rng(3)), **kw)
+    pat = jc.scenes.engagement(CH, Z, **modelled(profile=pattern(np.random.default_rng(3)), **kw))
     dy = _field(pat)
     assert all(np.all(np.isfinite(np.asarray(x))) for x in jax.tree_util.tree_leaves(dy))
 

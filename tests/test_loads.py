@@ -14,7 +14,7 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
-from helpers import FREE_DRIVE, energy_balance_error, tooth_period
+from helpers import FREE_DRIVE, energy_balance_error, modelled, tooth_period
 
 CAM = jc.loads.Harmonic(2.0, harmonics=((2, 1.5, 0.4), (4, 0.5, -1.0)))
 # a dissipation-free 9/18 drive whose driven sprocket carries the harmonic load
@@ -63,7 +63,7 @@ def test_bad_loads_refused(make, match):
 
 @pytest.fixture(scope="module")
 def cam_drive():
-    return jc.scenes.drive("08B", load_torque=CAM, **FREE)
+    return jc.scenes.drive("08B", **modelled(load_torque=CAM, **FREE))
 
 
 def test_camshaft_torque_is_the_valve_trains_torque():
@@ -165,7 +165,7 @@ def test_user_defined_load():
     observer, with no change anywhere else: its work matches ∫ c·ω² dt from the saved
     speeds."""
     load = Viscous(0.05)  # N·m per rad/s: 1.57 N·m at the driven sprocket's 31.4 rad/s
-    scene = jc.scenes.drive("08B", load_torque=load, **FREE)
+    scene = jc.scenes.drive("08B", **modelled(load_torque=load, **FREE))
     spr = scene.sprockets[1]
     assert isinstance(spr.torque_load, Viscous)
     assert float(spr.load(0.0)) == pytest.approx(0.05 * float(spr.speed))
@@ -197,8 +197,12 @@ def test_load_counts_in_the_running_direction():
 
 def test_number_loads_stack():
     """Builders turn numbers into one load type whatever the ramp, so such scenes stack."""
-    a = jc.scenes.drive("08B", load_torque=5.0, **FREE, model=jc.scenes.ChainModel(settle=False))
-    b = jc.scenes.drive("08B", load_torque=7.0, **FREE, model=jc.scenes.ChainModel(settle=False))
+    a = jc.scenes.drive(
+        "08B", **modelled(load_torque=5.0, **FREE, model=jc.scenes.ChainModel(settle=False))
+    )
+    b = jc.scenes.drive(
+        "08B", **modelled(load_torque=7.0, **FREE, model=jc.scenes.ChainModel(settle=False))
+    )
     stacked = jc.scenes.stack([a, b])
     np.testing.assert_allclose(stacked.sprockets[1].load_torque, [5.0, 7.0])
     assert eqx.tree_equal(jax.tree.structure(a), jax.tree.structure(b))

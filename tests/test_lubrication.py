@@ -15,6 +15,8 @@ import jaxchain as jc
 from jaxchain._dynamics import forces
 from jaxchain._elements.pairs import ClearanceJoints, PairGroup
 
+from helpers import modelled
+
 OIL = jc.contact.OilFilm(viscosity=0.01)
 C, R, L = 25e-6, 2.2e-3, 11e-3  # 08B pin in its bush [m]
 
@@ -109,8 +111,10 @@ def test_film_damps_approach_like_a_squeeze_film():
 def strands():
     kw = dict(speed_rpm=1000.0, fidelity="clearance", n_entry=4)
     return (
-        jc.scenes.engagement("08B", 18, **kw),
-        jc.scenes.engagement("08B", 18, **kw, model=jc.scenes.ChainModel(lubrication=OIL)),
+        jc.scenes.engagement("08B", 18, **modelled(**kw)),
+        jc.scenes.engagement(
+            "08B", 18, **modelled(**kw, model=jc.scenes.ChainModel(lubrication=OIL))
+        ),
     )
 
 

@@ -16,6 +16,8 @@ import pytest
 import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 
+from helpers import modelled
+
 P08, P06 = 12.7e-3, 9.525e-3  # 08B and 06B pitches [m]
 TRIANGLE = ((0.0, 0.0), (0.3, 0.05), (0.15, 0.25))
 SQUARE = ((0, 0), (0.4, 0), (0.4, 0.4), (0, 0.4))
@@ -244,7 +246,7 @@ def test_loop_layout_errors(kw, match):
 def test_drive_errors(kw, match):
     args = {"chain": "08B", "teeth": (18, 36, 27), "centres": TRI, "settle": False} | kw
     with pytest.raises(ValueError, match=match):
-        jc.scenes.drive(**args)
+        jc.scenes.drive(**modelled(**args))
 
 
 # ------------------------------------------------------------------- statics and dynamics

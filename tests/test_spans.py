@@ -16,7 +16,7 @@ import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 from jaxchain._elements.spans import scaled_curve
 
-from helpers import energy_balance_error
+from helpers import energy_balance_error, modelled
 
 CHAIN = jc.ChainSpec.iso606("08B")
 ISO18, ISO36 = jc.ToothProfile.iso606(CHAIN, 18), jc.ToothProfile.iso606(CHAIN, 36)
@@ -88,7 +88,7 @@ def tensioned(**kw):
         teeth=(18, 36), centres=((0.0, 0.0), (0.33, 0.0)), speed_rpm=1000, load_torque=20.0,
         pretension=200.0, tensioner=jc.scenes.Tensioner(span=0, damping=0.5), fidelity="spans",
     )  # fmt: skip
-    return jc.scenes.drive(CHAIN, **(args | kw))
+    return jc.scenes.drive(CHAIN, **modelled(**args | kw))
 
 
 def test_the_tensioner_shoe_is_laid_out_as_in_the_lumped_chain():
@@ -222,19 +222,19 @@ def test_design_gradient_matches_central_differences():
 )
 def test_what_the_span_model_does_not_model_is_refused(kw, message):
     with pytest.raises(ValueError, match=message):
-        jc.scenes.drive(CHAIN, teeth=(18, 36), fidelity="spans", **kw)
+        jc.scenes.drive(CHAIN, **modelled(teeth=(18, 36), fidelity="spans", **kw))
 
 
 def test_guides_are_checked_and_change_nothing():
     """A guide lies along its straight span, which the span model never moves across: the
     scene is the one without it; a guide on a span the drive has not is refused."""
     kw = dict(teeth=(18, 36), load_torque=20.0, fidelity="spans")
-    plain = jc.scenes.drive(CHAIN, **kw)
-    guided = jc.scenes.drive(CHAIN, guides=(jc.scenes.Guide(span=1, length=0.1),), **kw)
+    plain = jc.scenes.drive(CHAIN, **modelled(**kw))
+    guided = jc.scenes.drive(CHAIN, **modelled(guides=(jc.scenes.Guide(span=1, length=0.1),), **kw))
     same = jax.tree.map(lambda a, b: bool(np.array_equal(a, b)), plain, guided)
     assert all(jax.tree.leaves(same))
     with pytest.raises(ValueError, match="Guide.span"):
-        jc.scenes.drive(CHAIN, guides=(jc.scenes.Guide(span=2),), **kw)
+        jc.scenes.drive(CHAIN, **modelled(guides=(jc.scenes.Guide(span=2),), **kw))
 
 
 def test_the_engagement_strand_has_no_span_fidelity():

@@ -10,6 +10,8 @@ import pytest
 
 import jaxchain as jc
 
+from helpers import modelled
+
 S = jc.scenes
 
 
@@ -26,7 +28,7 @@ def test_the_default_spec_is_the_default_drive():
     spec = S.DriveSpec(settle=False)
     assert [s.teeth for s in spec.sprockets] == [18, 36]
     assert spec.arguments()["load_torque"] == 20.0
-    same_scene(spec.build(), S.drive(settle=False))
+    same_scene(spec.build(), jc.scenes.drive(model=jc.scenes.ChainModel(settle=False)))
 
 
 def test_of_gathers_the_per_sprocket_arguments_and_builds_the_same_scene():
@@ -54,7 +56,7 @@ def test_of_gathers_the_per_sprocket_arguments_and_builds_the_same_scene():
         jc.ToothProfile.iso606(chain, 12, "mid"),
         jc.ToothProfile.iso606(chain, 27, "mid"),
     )
-    same_scene(spec.build(), S.drive("08B", **explicit))
+    same_scene(spec.build(), jc.scenes.drive("08B", **modelled(**explicit)))
     # a sweep is a replace; a change of one sprocket is with_sprocket
     faster = spec.replace(speed_rpm=2000.0).build()
     assert float(faster.sprockets[0].speed) == pytest.approx(2000.0 * np.pi / 30)
@@ -75,11 +77,11 @@ def test_an_inertia_left_out_is_the_builders_default():
         settle=False,
     )
     built = spec.build()
-    default = S.drive(
+    default = jc.scenes.drive(
         teeth=(18, 27, 12),
         centres=((0.0, 0.0), (0.22, -0.18), (0.26, 0.12)),
         load_torque=(15.0, 0.0),
-        settle=False,
+        model=jc.scenes.ChainModel(settle=False),
     )
     assert float(built.sprockets[2].inertia) == 2e-4
     assert float(built.sprockets[1].inertia) == float(default.sprockets[1].inertia)
@@ -106,7 +108,14 @@ def test_a_strand_spec_is_the_engagement_scene():
     )
     same_scene(
         spec.build(),
-        S.engagement("08B", 12, profile=prof, n_entry=3, tension=800.0, settle=False),
+        jc.scenes.engagement(
+            "08B",
+            12,
+            profile=prof,
+            n_entry=3,
+            tension=800.0,
+            model=jc.scenes.ChainModel(settle=False),
+        ),
     )
     scenes = [spec.replace(tension=t) for t in (500.0, 1000.0)]
     assert [s.arguments()["tension"] for s in scenes] == [500.0, 1000.0]

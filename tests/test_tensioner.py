@@ -16,7 +16,7 @@ import jaxchain as jc
 from jaxchain._dynamics import forces, initial_state
 from jaxchain._elements.shoes import shoe_contacts
 
-from helpers import energy_balance_error
+from helpers import energy_balance_error, modelled
 
 
 def _at_rest(y):
@@ -191,9 +191,10 @@ def test_catenary_sag():
 def test_gravity_argument():
     """gravity: none by default (the scene unchanged), a scalar along −y, or a vector."""
     kw = dict(teeth=(9, 18), n_links=40, settle=False)
-    np.testing.assert_array_equal(jc.scenes.drive(**kw).gravity, [0.0, 0.0])
+    np.testing.assert_array_equal(jc.scenes.drive(**modelled(**kw)).gravity, [0.0, 0.0])
     np.testing.assert_array_equal(
-        jc.scenes.drive(**kw, model=jc.scenes.ChainModel(gravity=(1.0, -2.0))).gravity, [1, -2]
+        jc.scenes.drive(**modelled(**kw, model=jc.scenes.ChainModel(gravity=(1.0, -2.0)))).gravity,
+        [1, -2],
     )
     eng = jc.scenes.engagement(model=jc.scenes.ChainModel(gravity=9.81, settle=False))
     np.testing.assert_array_equal(eng.gravity, [0.0, -9.81])
@@ -202,7 +203,7 @@ def test_gravity_argument():
     )
     for bad in (-1.0, (1.0, 2.0, 3.0), "down", (np.nan, 0.0)):
         with pytest.raises(ValueError, match="gravity"):
-            jc.scenes.drive(**kw, model=jc.scenes.ChainModel(gravity=bad))
+            jc.scenes.drive(**modelled(**kw, model=jc.scenes.ChainModel(gravity=bad)))
 
 
 @pytest.mark.parametrize(
@@ -226,7 +227,7 @@ def test_drive_refuses_bad_shoes():
     kw = dict(teeth=(18, 36), settle=False)
     ten = jc.scenes.Tensioner(span=0)
     with pytest.raises(ValueError, match="Tensioner.span must be"):
-        jc.scenes.drive(tensioner=jc.scenes.Tensioner(span=2), **kw)
+        jc.scenes.drive(**modelled(tensioner=jc.scenes.Tensioner(span=2), **kw))
     with pytest.raises(ValueError, match="needs no take-up"):
         jc.scenes.drive(
             teeth=(18, 36, 27),
@@ -236,15 +237,15 @@ def test_drive_refuses_bad_shoes():
             model=jc.scenes.ChainModel(settle=False),
         )
     with pytest.raises(ValueError, match="tensioner's span"):
-        jc.scenes.drive(tensioner=ten, guides=(jc.scenes.Guide(span=0),), **kw)
+        jc.scenes.drive(**modelled(tensioner=ten, guides=(jc.scenes.Guide(span=0),), **kw))
     with pytest.raises(ValueError, match="lies within the span"):
-        jc.scenes.drive(guides=(jc.scenes.Guide(span=1, at=0.95, length=0.2),), **kw)
+        jc.scenes.drive(**modelled(guides=(jc.scenes.Guide(span=1, at=0.95, length=0.2),), **kw))
     with pytest.raises(ValueError, match="Tensioner.shoe_radius must be in"):
-        jc.scenes.drive(tensioner=jc.scenes.Tensioner(shoe_radius=5.0), **kw)
+        jc.scenes.drive(**modelled(tensioner=jc.scenes.Tensioner(shoe_radius=5.0), **kw))
     with pytest.raises(ValueError, match="pretension must be > 0"):
-        jc.scenes.drive(tensioner=ten, pretension=0.0, load_torque=0.0, **kw)
+        jc.scenes.drive(**modelled(tensioner=ten, pretension=0.0, load_torque=0.0, **kw))
     with pytest.raises(TypeError, match="Tensioner"):
-        jc.scenes.drive(tensioner=object(), **kw)
+        jc.scenes.drive(**modelled(tensioner=object(), **kw))
 
 
 SWING = dict(teeth=(13, 26), speed_rpm=600.0, load_torque=30.0, pretension=300.0)
@@ -268,7 +269,8 @@ def test_tensioner_holds_the_mean_tension():
     399, 391 N (+77 % to +55 %), instantaneous mean 252–622 N."""
     pitch = jc.ChainSpec.iso606("10A").pitch
     ten = jc.scenes.drive(
-        "10A", centre_distance=30 * pitch, tensioner=jc.scenes.Tensioner(span=0), **SWING
+        "10A",
+        **modelled(centre_distance=30 * pitch, tensioner=jc.scenes.Tensioner(span=0), **SWING),
     )
     mean, per_rev = _mean_tension(ten, 5)
     assert np.all(np.abs(np.array(per_rev) / mean[0] - 1) < 0.10), (mean[0], per_rev)

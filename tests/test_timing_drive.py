@@ -19,6 +19,8 @@ from jaxchain._dynamics import contact_slots_ok, initial_state, roller_kinematic
 from jaxchain._elements.shoes import shoe_contacts
 from jaxchain.design import DesignSpace, ProfileObjective
 
+from helpers import modelled
+
 CHAIN = jc.ChainSpec.iso606("06B")
 RPM = 3000.0
 REV = 60.0 / RPM
@@ -35,7 +37,7 @@ N_SAVE = 601
 
 
 def timing_drive(speed_rpm=RPM, **kw):
-    return jc.scenes.drive(CHAIN, speed_rpm=speed_rpm, **{**TIMING, **kw})
+    return jc.scenes.drive(CHAIN, **modelled(speed_rpm=speed_rpm, **{**TIMING, **kw}))
 
 
 _shoe_contacts = eqx.filter_jit(shoe_contacts)  # eagerly, op by op, it takes seconds

@@ -18,6 +18,8 @@ import pytest
 import jaxchain as jc
 from jaxchain.design import DesignSpace, ProfileObjective, soft_peak_force, window_weight
 
+from helpers import modelled
+
 NAN, INF = float("nan"), float("inf")
 CHAIN = jc.ChainSpec.iso606("08B")
 PROFILE = jc.ToothProfile.iso606(CHAIN, 18)
@@ -33,11 +35,13 @@ PERIOD = 60.0 / (18 * 1000.0)
 
 
 def engagement(**kw):
-    return jc.scenes.engagement(**(dict(chain="08B", teeth=18, settle=False) | kw))
+    return jc.scenes.engagement(**modelled(**dict(chain="08B", teeth=18, settle=False) | kw))
 
 
 def drive(**kw):
-    return jc.scenes.drive(**(dict(chain="08B", teeth=(9, 18), n_links=30, settle=False) | kw))
+    return jc.scenes.drive(
+        **modelled(**dict(chain="08B", teeth=(9, 18), n_links=30, settle=False) | kw)
+    )
 
 
 def objective(**kw):

@@ -14,6 +14,8 @@ import pytest
 import jaxchain as jc
 from jaxchain.design import DesignSpace, ProfileObjective, SprocketDesign
 
+from helpers import modelled
+
 NAN, INF = float("nan"), float("inf")
 CHAIN = jc.ChainSpec.iso606("08B")
 P18 = jc.ToothProfile.iso606(CHAIN, 18)
@@ -34,11 +36,11 @@ SCENE = strand()
 
 
 def drive(**kw):
-    return jc.scenes.drive(**(dict(chain="08B", teeth=(18, 36), settle=False) | kw))
+    return jc.scenes.drive(**modelled(**dict(chain="08B", teeth=(18, 36), settle=False) | kw))
 
 
 def spans(**kw):
-    return jc.scenes.drive(**(dict(chain="08B", teeth=(18, 36), fidelity="spans") | kw))
+    return jc.scenes.drive(**modelled(**dict(chain="08B", teeth=(18, 36), fidelity="spans") | kw))
 
 
 def objective(**kw):
