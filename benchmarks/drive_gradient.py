@@ -139,7 +139,6 @@ def gradient_row(scene: str, periods: int, dt: float = DT, slip=2e-2) -> dict:
         samples=8,
         dt=dt,
         take_up=TAKE_UP if scene == "drive" else 0.0,
-        max_steps=400_000,
     )
     u = jnp.zeros(space.size)
     scenes = obj.scenes(u)
@@ -192,7 +191,6 @@ def band_probe(revs: float = REVS, steps=STEPS_H, seed: int = 0) -> dict:
         objective=objective,
         dt=DT,
         take_up=TAKE_UP,
-        max_steps=400_000,
     )
     u = jnp.zeros(space.size)
     scenes = obj.scenes(u)

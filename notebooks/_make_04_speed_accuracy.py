@@ -352,7 +352,7 @@ if FAST:  # a short strand from its layout: nothing to settle, small compile
     scene = jc.scenes.engagement(
         "08B", 18, n_entry=3, n_exit=2, wrap=9, model=jc.scenes.ChainModel(settle=False)
     )
-    t1, solvers, rtols = 0.3 * period, ["Bosh3", "Tsit5"], [1e-3, 1e-5]
+    t1, solvers, rtols = 0.3 * period, ["Tsit5"], [1e-3, 1e-5]  # one solver: one compile
     ref_solver, ref_rtol, repeats = "Tsit5", 1e-9, 1
 else:
     scene = jc.scenes.engagement("08B", 18)  # settled start

@@ -218,18 +218,24 @@ def sharded_equals_unsharded(proc, one_batch):
     assert res["steps_executed"] == int(np.sum(one_batch.steps))  # waste 1.0
 
 
-def test_ensembles_batched_grouped_per_member_failures_no_retrace_sharded(scenes, monkeypatch):
+def test_ensembles_batched_grouped_per_member_failures_no_retrace(scenes, monkeypatch):
     """One test for everything that shares the compiled batch of four (it compiles once
     however pytest-xdist distributes the tests): equal to one-at-a-time ``simulate``,
-    grouping by cost, failures per member, no retrace, and sharded over 4 host devices
-    (a subprocess, run alongside)."""
+    grouping by cost, failures per member, no retrace."""
+    one_batch = jc.simulate_ensemble(scenes, T1, dt0=DT, group_waste=None, **FIXED)
+    matches_simulate(one_batch, scenes)
+    grouping_cuts_the_waste()
+    failures_are_per_member(scenes, one_batch)
+    second_call_does_not_retrace(scenes, one_batch, monkeypatch)
+
+
+@pytest.mark.slow  # a subprocess on the worker's core: ~15 s of its own compile
+def test_ensembles_sharded_over_4_host_devices(scenes):
+    """The batch of four sharded over 4 host devices (a subprocess, run alongside) equals
+    the batch on one device."""
     proc = start_sharded()
     try:
         one_batch = jc.simulate_ensemble(scenes, T1, dt0=DT, group_waste=None, **FIXED)
-        matches_simulate(one_batch, scenes)
-        grouping_cuts_the_waste()
-        failures_are_per_member(scenes, one_batch)
-        second_call_does_not_retrace(scenes, one_batch, monkeypatch)
         sharded_equals_unsharded(proc, one_batch)
     finally:
         if proc.poll() is None:

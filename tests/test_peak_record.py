@@ -39,6 +39,7 @@ def strand():
     return sc, 1.5 * tooth_period(1000.0, 18)  # an engagement's impact and its top
 
 
+@pytest.mark.slow  # a solve program of its own (the every-step record): ~10 s
 def test_the_gated_peak_is_the_every_step_peak(strand):
     """On the meshing strand the gated record reads the peak that sampling every step
     reads (both 1686.256 N over 6 tooth periods in ``benchmarks.step_cost.py``, with 33

@@ -69,9 +69,11 @@ def sharp_peak(scene: Scene, t1: float, *, t_start: float = 0.0, rtol: float = 1
     0.5 µs apart (2001 to 60 001 of them) — the sharp maximum, not a soft one, from a
     solver and tolerance independent of a fixed-step design solve.
 
-    Returns a dict: ``peak_N`` (NaN where the solve failed), ``ok``, ``message``,
-    ``steps`` (accepted), ``ts`` [s], ``force`` (the largest roller force at each save
-    [N]) and ``torque`` (the first sprocket's torque at each save [N·m])."""
+    Returns a dict: ``peak_N`` (NaN where the solve failed), ``record_N`` (the same
+    solve's exact peak between its steps, ``Solution.peak_contact_force``, over the whole
+    solve: a second reading of the top), ``ok``, ``message``, ``steps`` (accepted), ``ts``
+    [s], ``force`` (the largest roller force at each save [N]) and ``torque`` (the first
+    sprocket's torque at each save [N·m])."""
     checks.instance("scene", scene, Scene, "a jaxchain Scene")
     t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
     t_start = checks.real("t_start", t_start, lo=0.0, hi=t1, unit="s")
@@ -90,6 +92,7 @@ def sharp_peak(scene: Scene, t1: float, *, t_start: float = 0.0, rtol: float = 1
     force = np.asarray(sol.roller_sprocket_force)
     return {
         "peak_N": float(np.max(force)) if sol.ok else float("nan"),
+        "record_N": float(sol.peak_contact_force) if sol.ok else float("nan"),
         "ok": bool(sol.ok),
         "message": sol.message,
         "steps": int(sol.stats["num_accepted_steps"]),
