@@ -42,8 +42,8 @@ def strand():
 @pytest.mark.slow  # a solve program of its own (the every-step record): ~10 s
 def test_the_gated_peak_is_the_every_step_peak(strand):
     """On the meshing strand the gated record reads the peak that sampling every step
-    reads (both 1686.256 N over 6 tooth periods in ``benchmarks.step_cost.py``, with 33
-    of 4790 steps sampled)."""
+    reads (both 1686.256 N over 6 tooth periods in ``benchmarks/step_cost.py``, with 39
+    of 9104 steps sampled)."""
     sc, t1 = strand
     gated = jc.simulate(sc, t1, n_save=2)
     every = jc.simulate(sc, t1, n_save=2, observers=(jc.observers.PeakRecord(gate=False),))
