@@ -16,7 +16,7 @@ from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.cushion import CushionRing
 
-__all__ = ["ChainModel", "DriveArgs", "model_of", "rad_per_s", "FIDELITIES"]
+__all__ = ["ChainModel", "ModelFields", "DriveArgs", "model_of", "rad_per_s", "FIDELITIES"]
 
 FIDELITIES = ("lumped", "clearance", "spans")
 
@@ -29,7 +29,27 @@ def rad_per_s(speed_rpm) -> float:
 
 
 @dataclasses.dataclass(frozen=True)
-class ChainModel:
+class ModelFields:
+    """The chain-model fields that :class:`ChainModel` and the specs share (a spec carries
+    them flat, as the builders' keywords; see :attr:`DriveSpec.model
+    <jaxchain.scenes.DriveSpec.model>`)."""
+
+    form: Literal["min", "max", "mid"] = "mid"
+    elongation: float = 0.0
+    restitution: float = 0.7
+    friction: AbstractFrictionLaw | str | None = "default"
+    joint_friction: AbstractFrictionLaw | str | None = "default"
+    lubrication: AbstractFilmLaw | None = None
+    impact_speed: float = 1.0
+    rollers_on_bush: Literal["joint", "lumped"] | None = None
+    roller_contact: AbstractContactLaw | None = None
+    link_damping: float = 0.05
+    gravity: float | tuple[float, float] | None = None
+    settle: bool = True
+
+
+@dataclasses.dataclass(frozen=True)
+class ChainModel(ModelFields):
     """How the chain and its contacts are modelled, shared by every scene builder
     (``drive(..., model=jc.scenes.ChainModel(restitution=0.5))``); ``replace`` makes a
     variant. The defaults are the builders' defaults.
@@ -63,18 +83,6 @@ class ChainModel:
             sprocket of a drive; None: no rings.
     """
 
-    form: Literal["min", "max", "mid"] = "mid"
-    elongation: float = 0.0
-    restitution: float = 0.7
-    friction: AbstractFrictionLaw | str | None = "default"
-    joint_friction: AbstractFrictionLaw | str | None = "default"
-    lubrication: AbstractFilmLaw | None = None
-    impact_speed: float = 1.0
-    rollers_on_bush: Literal["joint", "lumped"] | None = None
-    roller_contact: AbstractContactLaw | None = None
-    link_damping: float = 0.05
-    gravity: float | tuple[float, float] | None = None
-    settle: bool = True
     load_ramp: float | None = None
     shoe_contact: AbstractContactLaw | None = None
     cushion: CushionRing | Sequence[CushionRing | None] | None = None

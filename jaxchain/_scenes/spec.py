@@ -17,8 +17,6 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
-from .._contact.film_base import AbstractFilmLaw
-from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.base import AbstractElement
 from .._elements.cushion import CushionRing, as_cushions
 from .._loads import AbstractLoad
@@ -28,7 +26,7 @@ from .._scene import Scene
 from .common import disc_inertia
 from .drive import drive
 from .engagement import engagement
-from .model import MODEL_FIELDS, ChainModel
+from .model import MODEL_FIELDS, ChainModel, ModelFields
 from .shoes import Guide, Tensioner
 
 __all__ = ["SprocketSpec", "DriveSpec", "StrandSpec"]
@@ -99,25 +97,20 @@ class SprocketSpec:
 
 
 @dataclasses.dataclass(frozen=True)
-class _ChainModel:
-    """How the chain and its contacts are modelled: what drives and strands share (each
-    field as in :func:`~jaxchain.scenes.drive`)."""
+class _Operating:
+    """The chain, its speed and the fidelity: the first fields of a spec."""
 
     chain: ChainSpec | str = "08B"
     speed_rpm: float = 1000.0
     fidelity: Literal["lumped", "clearance"] = "lumped"
-    form: Literal["min", "max", "mid"] = "mid"
-    elongation: float = 0.0
-    restitution: float = 0.7
-    friction: AbstractFrictionLaw | str | None = "default"
-    joint_friction: AbstractFrictionLaw | str | None = "default"
-    lubrication: AbstractFilmLaw | None = None
-    impact_speed: float = 1.0
-    rollers_on_bush: Literal["joint", "lumped"] | None = None
-    roller_contact: AbstractContactLaw | None = None
-    link_damping: float = 0.05
-    gravity: float | tuple[float, float] | None = None
-    settle: bool = True
+
+
+@dataclasses.dataclass(frozen=True)
+class _ChainModel(ModelFields, _Operating):
+    """How the chain and its contacts are modelled: what drives and strands share (each
+    field as in :func:`~jaxchain.scenes.drive`): the chain, speed and fidelity, then the
+    :class:`ChainModel` fields a spec carries flat."""
+
     #: force elements of the user's own, added to the built scene
     #: (:meth:`~jaxchain.Scene.add_elements`; the settled start is the built-in elements').
     elements: tuple[AbstractElement, ...] = ()
