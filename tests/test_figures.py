@@ -133,7 +133,7 @@ def test_timing_design():
 
 
 def test_scipy_ratio():
-    """25–27× the best SciPy method at 1 % and 0.1 % peak error."""
+    """32–34× the best SciPy method at 1 % and 0.1 % peak error."""
     rows = {c["error"]: c for c in result("scipy_engagement.json")["comparison"]}
     low, high = (rows[e]["speedup_vs_best_scipy"] for e in (0.01, 0.001))
     assert rows[0.01]["scipy_best"] == rows[0.001]["scipy_best"] == "LSODA"
