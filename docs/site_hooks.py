@@ -6,6 +6,7 @@ repository."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from mkdocs.plugins import event_priority
@@ -61,3 +62,20 @@ def on_files(files: Files, config) -> Files:
             files.append(File.generated(config, uri, abs_src_path=str(path)))
     files.append(File.generated(config, "docs/api.md", content=api_page()))
     return files
+
+
+# the docstrings' Sphinx roles (:class:`~jaxchain.Solution`, :meth:`iso606`,
+# :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>`) as plain code: the
+# shown name, the last dotted part after a "~"
+_ROLE = re.compile(
+    r":(?:class|func|meth|attr|mod|data|obj|exc):<code>(~?)([^<]*?)(?: &lt;[^<]*&gt;)?</code>"
+)
+
+
+def _shown(match: re.Match) -> str:
+    name = match.group(2)
+    return f"<code>{name.rsplit('.', 1)[-1] if match.group(1) else name}</code>"
+
+
+def on_page_content(html: str, page, config, files) -> str:
+    return _ROLE.sub(_shown, html)

@@ -19,5 +19,6 @@ def test_the_site_builds_strictly(tmp_path):
     api = (tmp_path / "docs" / "api.html").read_text()
     for name in ("jaxchain.simulate", "jaxchain.scenes.drive", "jaxchain.contact.OilFilm"):
         assert f'id="{name}"' in api, name  # the reference documents the public API
+    assert ":class:<code>" not in api and ":meth:<code>" not in api  # roles shown as code
     assert (tmp_path / "notebooks" / "01_drive_walkthrough.html").exists()
     assert (tmp_path / "benchmarks" / "results" / "engagement.gif").exists()
