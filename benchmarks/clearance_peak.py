@@ -73,7 +73,7 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import finish, header, parse, parser, save_chart  # noqa: E402
+from benchmarks.common import finish, header, modelled, parse, parser, save_chart  # noqa: E402
 
 CHAIN, TEETH, TENSION = "08B", 18, 1000.0
 THRESHOLD, WINDOW = 1.0, 0.5  # EngagementPeaks' defaults [N], [tooth periods]
@@ -156,7 +156,7 @@ def period(rpm: float) -> float:
 
 def strand(rpm: float, n_entry: int, **variant):
     return jc.scenes.engagement(
-        CHAIN, TEETH, speed_rpm=rpm, tension=TENSION, n_entry=n_entry, **variant
+        CHAIN, TEETH, **modelled(speed_rpm=rpm, tension=TENSION, n_entry=n_entry, **variant)
     )
 
 

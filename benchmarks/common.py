@@ -208,7 +208,8 @@ DRIVE_LOAD, DRIVE_PRETENSION = 40.0, 300.0
 
 def quiet_drive_scene(driver, rpm: float, **model):
     """The study's settled drive with ``driver`` as the z = 18 driver's profile at ``rpm``
-    (``model``: ``jc.scenes.drive``'s ``roller_contact``, ``joint_friction``, ...)."""
+    (``model``: fields of its ``jc.scenes.ChainModel``: ``roller_contact``,
+    ``joint_friction``, ...)."""
     import jaxchain as jc
 
     chain = jc.ChainSpec.iso606(DRIVE_CHAIN)
@@ -220,5 +221,21 @@ def quiet_drive_scene(driver, rpm: float, **model):
         load_torque=DRIVE_LOAD,
         pretension=DRIVE_PRETENSION,
         profiles=[driver, jc.ToothProfile.iso606(chain, DRIVE_Z_DRIVEN, "min")],
-        **model,
+        model=jc.scenes.ChainModel(**model),
     )
+
+
+def modelled(**kwargs) -> dict:
+    """A builder's keywords with the chain model's fields (``jc.scenes.ChainModel``) moved
+    into ``model=``: for studies that gather a scene's keywords in a dict (as
+    :data:`FRICTIONLESS`)."""
+    import dataclasses
+
+    import jaxchain as jc
+
+    names = {f.name for f in dataclasses.fields(jc.scenes.ChainModel)}
+    fields = {k: kwargs.pop(k) for k in list(kwargs) if k in names}
+    if fields:
+        model = kwargs.pop("model", None) or jc.scenes.ChainModel()
+        kwargs["model"] = model.replace(**fields)
+    return kwargs

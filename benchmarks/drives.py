@@ -50,6 +50,7 @@ import jaxchain as jc  # noqa: E402
 from benchmarks.common import (  # noqa: E402
     finish,
     machine_info,  # noqa: E402
+    modelled,
     parse,
     parser,
 )
@@ -89,7 +90,10 @@ def build(name: str, fidelity: str = "lumped", settle: bool = True):
     else:
         kw = BY_SPROCKETS[int(name.split("_")[1])]
     return jc.scenes.drive(
-        CHAIN, **{**COMMON, **kw}, fidelity=fidelity, model=jc.scenes.ChainModel(settle=settle)
+        CHAIN,
+        **modelled(
+            **{**COMMON, **kw}, fidelity=fidelity, model=jc.scenes.ChainModel(settle=settle)
+        ),
     )
 
 

@@ -33,7 +33,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import FRICTIONLESS, parse, parser, vf_time  # noqa: E402
+from benchmarks.common import FRICTIONLESS, modelled, parse, parser, vf_time  # noqa: E402
 
 STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
 
@@ -91,11 +91,13 @@ def compile_times(fidelities, links=(50, 100, 200)):
         for n in links:
             sc = jc.scenes.drive(
                 "08B",
-                teeth=(18, 36),
-                n_links=n,
-                fidelity=fid,
-                **FRICTIONLESS,
-                model=jc.scenes.ChainModel(settle=False),
+                **modelled(
+                    teeth=(18, 36),
+                    n_links=n,
+                    fidelity=fid,
+                    **FRICTIONLESS,
+                    model=jc.scenes.ChainModel(settle=False),
+                ),
             )
             t1 = 20e-6
             _, cold = timed_run(sc, t1, n_save=3)
@@ -109,14 +111,16 @@ def comparison_drive(n_links, fidelity, rollers_on_bush):
     """The settled 18/36 drive both drive studies use: 1000 rpm, 20 N·m, 200 N."""
     return jc.scenes.drive(
         "08B",
-        teeth=(18, 36),
-        n_links=n_links,
-        speed_rpm=1000,
-        load_torque=20.0,
-        pretension=200.0,
-        fidelity=fidelity,
-        **FRICTIONLESS,
-        model=jc.scenes.ChainModel(rollers_on_bush=rollers_on_bush),
+        **modelled(
+            teeth=(18, 36),
+            n_links=n_links,
+            speed_rpm=1000,
+            load_torque=20.0,
+            pretension=200.0,
+            fidelity=fidelity,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(rollers_on_bush=rollers_on_bush),
+        ),
     )
 
 
@@ -205,11 +209,13 @@ def main(argv=None):
         sc = jc.scenes.engagement(
             "08B",
             18,
-            speed_rpm=1000,
-            n_entry=8,
-            fidelity=fid,
-            **FRICTIONLESS,
-            model=jc.scenes.ChainModel(rollers_on_bush=rob),
+            **modelled(
+                speed_rpm=1000,
+                n_entry=8,
+                fidelity=fid,
+                **FRICTIONLESS,
+                model=jc.scenes.ChainModel(rollers_on_bush=rob),
+            ),
         )
         eng[key], _ = case(f"engagement z18 {key}", sc, t_eng, rev)
     results["engagement"] = eng

@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 import jaxchain as jc
+from benchmarks.common import modelled
 
 CHAIN, TEETH, TENSION = "08B", 18, 1000.0
 DISCARD = 2  # tooth periods of start transient
@@ -27,7 +28,7 @@ def strand(rpm: float, n_entry: int, **model):
     ``model`` says otherwise (``jc.scenes.engagement``'s keywords)."""
     model = {"fidelity": "clearance", **model}
     return jc.scenes.engagement(
-        CHAIN, TEETH, speed_rpm=rpm, tension=TENSION, n_entry=n_entry, **model
+        CHAIN, TEETH, **modelled(speed_rpm=rpm, tension=TENSION, n_entry=n_entry, **model)
     )
 
 

@@ -53,6 +53,7 @@ import jaxchain as jc  # noqa: E402
 from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
     loadavg,  # noqa: E402
+    modelled,
     parse,
     parser,
 )
@@ -92,7 +93,9 @@ def timed(fn, repeats=1):
 def members(speeds, **kw):
     """Settled meshing scenes at the given speeds (statics compiled once)."""
     return [
-        jc.scenes.engagement("08B", Z, speed_rpm=float(r), n_entry=8, **kw, **FRICTIONLESS)
+        jc.scenes.engagement(
+            "08B", Z, **modelled(speed_rpm=float(r), n_entry=8, **kw, **FRICTIONLESS)
+        )
         for r in speeds
     ]
 
@@ -408,11 +411,13 @@ def gradient_study(n, t1, dt, repeats, default_adjoint=True):
 def _compile_row(fid, links, t1, kw):
     sc = jc.scenes.drive(
         "08B",
-        teeth=(18, 36),
-        n_links=links,
-        fidelity=fid,
-        **FRICTIONLESS,
-        model=jc.scenes.ChainModel(settle=False),
+        **modelled(
+            teeth=(18, 36),
+            n_links=links,
+            fidelity=fid,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(settle=False),
+        ),
     )
     traces = {"forward": 0, "gradient": 0, "tangent": 0}
 

@@ -41,6 +41,7 @@ from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
     finish,
     machine_info,  # noqa: E402
+    modelled,
     parse,
     parser,
     tooth_period,  # noqa: E402
@@ -62,13 +63,15 @@ def scene(fidelity, rollers_on_bush, speed_rpm):
     return jc.scenes.engagement(
         CHAIN,
         TEETH,
-        speed_rpm=speed_rpm,
-        tension=TENSION,
-        n_entry=8,
-        n_exit=5,
-        fidelity=fidelity,
-        **FRICTIONLESS,
-        model=jc.scenes.ChainModel(restitution=RESTITUTION, rollers_on_bush=rollers_on_bush),
+        **modelled(
+            speed_rpm=speed_rpm,
+            tension=TENSION,
+            n_entry=8,
+            n_exit=5,
+            fidelity=fidelity,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(restitution=RESTITUTION, rollers_on_bush=rollers_on_bush),
+        ),
     )
 
 

@@ -39,6 +39,7 @@ from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
     finish,
     machine_info,  # noqa: E402
+    modelled,
     parse,
     parser,
     vf_time,
@@ -126,7 +127,12 @@ def compile_time(scene, t1: float, repeats: int) -> float:
 def scenes(name: str):
     if name == "engagement":
         for key, p in profiles(18).items():
-            yield key, jc.scenes.engagement(CHAIN, 18, speed_rpm=600, profile=p, **FRICTIONLESS)
+            yield (
+                key,
+                jc.scenes.engagement(
+                    CHAIN, 18, **modelled(speed_rpm=600, profile=p, **FRICTIONLESS)
+                ),
+            )
     else:
         p18, p36 = profiles(18), profiles(36)
         for key in p18:
@@ -134,11 +140,13 @@ def scenes(name: str):
                 key,
                 jc.scenes.drive(
                     CHAIN,
-                    teeth=(18, 36),
-                    n_links=100,
-                    profiles=(p18[key], p36[key]),
-                    **FRICTIONLESS,
-                    model=jc.scenes.ChainModel(settle=False),
+                    **modelled(
+                        teeth=(18, 36),
+                        n_links=100,
+                        profiles=(p18[key], p36[key]),
+                        **FRICTIONLESS,
+                        model=jc.scenes.ChainModel(settle=False),
+                    ),
                 ),
             )
 

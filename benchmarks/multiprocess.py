@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from benchmarks.common import FRICTIONLESS, finish, parse, parser
+from benchmarks.common import FRICTIONLESS, finish, modelled, parse, parser
 
 ROOT = Path(__file__).resolve().parents[1]
 NAME = "multiprocess"
@@ -61,7 +61,9 @@ def worker(path: Path, members: int, repeats: int, iterations: int) -> None:
     speeds = RPM * (1 + 0.1 * np.linspace(-1, 1, members))
 
     def make(i):
-        return jc.scenes.engagement("08B", Z, speed_rpm=float(speeds[i]), n_entry=4, **FRICTIONLESS)
+        return jc.scenes.engagement(
+            "08B", Z, **modelled(speed_rpm=float(speeds[i]), n_entry=4, **FRICTIONLESS)
+        )
 
     # (a) throughput
     t = time.perf_counter()

@@ -13,7 +13,7 @@ import diffrax
 import numpy as np
 
 import jaxchain as jc
-from benchmarks.common import FRICTIONLESS, RPM, timed
+from benchmarks.common import FRICTIONLESS, RPM, modelled, timed
 
 ATOL_PER_RTOL = 1e-3  # atol = 1e-3·rtol: positions ~5e-2 m, speeds ~1 m/s
 REF_RTOL = 1e-11
@@ -45,7 +45,7 @@ STYLE = {
 
 # ----------------------------------------------------------------------------- scenes
 def engagement_scene():
-    return jc.scenes.engagement("08B", 18, speed_rpm=RPM, **FRICTIONLESS)
+    return jc.scenes.engagement("08B", 18, **modelled(speed_rpm=RPM, **FRICTIONLESS))
 
 
 # The drive starts from its layout (settle=False): jc.scenes.drive's static equilibrium
@@ -55,7 +55,7 @@ DRIVE = dict(teeth=(9, 18), n_links=40, speed_rpm=RPM, settle=False)
 
 
 def drive_scene():
-    return jc.scenes.drive("08B", **DRIVE, **FRICTIONLESS)
+    return jc.scenes.drive("08B", **modelled(**DRIVE, **FRICTIONLESS))
 
 
 # ----------------------------------------------------------------------------- solves

@@ -85,6 +85,7 @@ from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
     loadavg,
     machine_info,
+    modelled,
     parse,
     parser,
     tooth_period,  # noqa: E402
@@ -128,11 +129,13 @@ def sweep_scene(law):
     return jc.scenes.engagement(
         CHAIN,
         TEETH,
-        speed_rpm=RPM,
-        tension=TENSION,
-        n_exit=N_EXIT,
-        **FRICTIONLESS,
-        model=jc.scenes.ChainModel(restitution=RESTITUTION, roller_contact=law),
+        **modelled(
+            speed_rpm=RPM,
+            tension=TENSION,
+            n_exit=N_EXIT,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(restitution=RESTITUTION, roller_contact=law),
+        ),
     )
 
 
@@ -158,14 +161,16 @@ def fidelity_scene(fidelity, speed_rpm, span_softening=SPAN_SOFTENING):
     sc = jc.scenes.engagement(
         chain,
         TEETH,
-        speed_rpm=speed_rpm,
-        tension=TENSION,
-        n_exit=N_EXIT,
-        fidelity=fidelity,
-        span_stiffness=k_span,
-        **FRICTIONLESS,
-        model=jc.scenes.ChainModel(
-            restitution=RESTITUTION, settle=False, roller_contact=law_with(nominal_law())
+        **modelled(
+            speed_rpm=speed_rpm,
+            tension=TENSION,
+            n_exit=N_EXIT,
+            fidelity=fidelity,
+            span_stiffness=k_span,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(
+                restitution=RESTITUTION, settle=False, roller_contact=law_with(nominal_law())
+            ),
         ),
     )
     return joint_laws_with(sc)

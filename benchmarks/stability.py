@@ -64,7 +64,7 @@ import optimistix as optx  # noqa: E402
 from jax.flatten_util import ravel_pytree  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import FRICTIONLESS, parse, parser  # noqa: E402
+from benchmarks.common import FRICTIONLESS, modelled, parse, parser  # noqa: E402
 
 GROWTH = 1e8  # amplification over the horizon counted as divergence (see module doc)
 BLOWUP = 10.0  # a "successful" solve whose peak force exceeds 10× the reference blew up
@@ -143,11 +143,13 @@ def base_scene(n_entry: int) -> jc.Scene:
     return jc.scenes.engagement(
         "08B",
         TEETH,
-        speed_rpm=RPM,
-        tension=TENSION,
-        n_entry=n_entry,
-        **FRICTIONLESS,
-        model=jc.scenes.ChainModel(settle=False),
+        **modelled(
+            speed_rpm=RPM,
+            tension=TENSION,
+            n_entry=n_entry,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(settle=False),
+        ),
     )
 
 
