@@ -18,7 +18,6 @@ from .._profiles.iso import ToothProfile
 from .build import joint_law, link_stiffness
 
 __all__ = [
-    "check_common",
     "disc_inertia",
     "contact_slots",
     "check_profile",
@@ -26,77 +25,6 @@ __all__ = [
     "worn",
     "as_gravity",
 ]
-
-
-def check_common(
-    *,
-    speed_rpm,
-    fidelity,
-    form,
-    restitution,
-    friction,
-    joint_friction,
-    impact_speed,
-    rollers_on_bush,
-    roller_contact,
-    settle,
-    link_damping,
-    lubrication=None,
-) -> float:
-    """The arguments every scene builder shares; returns speed_rpm as a float."""
-    from .._contact.base import AbstractContactLaw
-    from .._contact.friction_base import AbstractFrictionLaw
-
-    speed = checks.real("speed_rpm", speed_rpm, lo=0.0, lo_open=True, unit="rpm")
-    checks.choice("fidelity", fidelity, ("lumped", "clearance", "spans"))
-    checks.choice("form", form, ("min", "max", "mid"))
-    checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
-    if friction is not None and not (isinstance(friction, str) and friction == "default"):
-        checks.instance(
-            "friction", friction, AbstractFrictionLaw,
-            "a jc.contact.CoulombFriction, a jc.contact.DahlFriction (any "
-            "jc.contact.AbstractFrictionLaw), 'default' (a bush chain's "
-            "jc.scenes.BUSH_TOOTH_FRICTION, none for a roller chain) or None",
-        )  # fmt: skip
-    if joint_friction is not None and not (
-        isinstance(joint_friction, str) and joint_friction == "default"
-    ):
-        checks.instance(
-            "joint_friction",
-            joint_friction,
-            AbstractFrictionLaw,
-            "a jc.contact.DahlFriction, a jc.contact.CoulombFriction (any "
-            "jc.contact.AbstractFrictionLaw), 'default' (the fidelity's default, "
-            "jc.scenes.joint_friction_default) or None",
-        )
-    if lubrication is not None:
-        from .._contact.film_base import AbstractFilmLaw
-
-        checks.instance(
-            "lubrication", lubrication, AbstractFilmLaw,
-            "an oil film of the clearance joints (jc.contact.OilFilm(viscosity=...), any "
-            "jc.contact.AbstractFilmLaw) or None (dry joints)",
-        )  # fmt: skip
-        if fidelity != "clearance":
-            raise ValueError(
-                f"lubrication: an oil film acts in the pin/bush and bush/roller clearance "
-                f"joints of fidelity='clearance'; fidelity={fidelity!r} has no clearance "
-                "joints (use fidelity='clearance', or lubrication=None)"
-            )
-    checks.real("impact_speed", impact_speed, lo=0.0, lo_open=True, unit="m/s")
-    if rollers_on_bush is not None:  # None: the chain's own (build.rollers_on_bush_of)
-        checks.choice("rollers_on_bush", rollers_on_bush, ("joint", "lumped", None))
-    if roller_contact is not None:
-        checks.instance(
-            "roller_contact",
-            roller_contact,
-            AbstractContactLaw,
-            "a normal contact law (jc.contact.JohnsonCylinder, LankaraniNikravesh, ...; "
-            "jc.scenes.roller_law builds the default) or None",
-        )
-    checks.flag("settle", settle)
-    checks.real("link_damping", link_damping, lo=0.0, unit="(damping ratio)")
-    return speed
 
 
 def disc_inertia(chain: ChainSpec, profile: ToothProfile, density: float = 7850.0) -> float:
