@@ -29,6 +29,7 @@ from ._design.remeasure import (
     remeasure as remeasure,
     second_law as second_law,
     sharp_peak as sharp_peak,
+    solve_each as solve_each,
     solve_threads as solve_threads,
 )
 from ._design.space import PARAMETERS as PARAMETERS, DesignSpace as DesignSpace
@@ -50,6 +51,7 @@ __all__ = [
     "second_law",
     "sharp_peak",
     "soft_peak_force",
+    "solve_each",
     "solve_threads",
     "window_weight",
 ]

@@ -14,7 +14,6 @@ Three problems (``--problem``), all robust over a band of speeds and chain wear:
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 
 import equinox as eqx
@@ -509,14 +508,8 @@ second_law = jc.design.second_law
 solve_threads = jc.design.solve_threads
 
 
-def solve_all(solve, jobs: list, threads: int | None = None) -> list:
-    """``solve(job)`` of every job, in order, ``threads`` at a time (default
-    :func:`solve_threads`): independent XLA solves, one per core."""
-    threads = min(solve_threads() if threads is None else threads, len(jobs))
-    if threads > 1:
-        with ThreadPoolExecutor(threads) as pool:
-            return list(pool.map(solve, jobs))
-    return [solve(job) for job in jobs]
+#: every job's solve, in order, on the cores this process may use
+solve_all = jc.design.solve_each
 
 
 def remeasure(problem: Problem, profile, *, law: str = "johnson", rtol: float | None = None):

@@ -4,6 +4,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+# the chain model's fields into model=, as the studies gather a scene's keywords
+from benchmarks.common import modelled  # noqa: F401  (tests import it from here)
+
 
 def central_fd(f, x, h):
     """Central finite-difference gradient of scalar f at x (any shape), step h."""
@@ -143,18 +146,3 @@ FREE_DRIVE = dict(
     link_damping=0.0,
     joint_friction=None,
 )
-
-
-def modelled(**kwargs) -> dict:
-    """A builder's keywords with the chain model's fields (``jc.scenes.ChainModel``) moved
-    into ``model=``: for tests that gather a scene's keywords in a dict."""
-    import dataclasses
-
-    import jaxchain as jc
-
-    names = {f.name for f in dataclasses.fields(jc.scenes.ChainModel)}
-    fields = {k: kwargs.pop(k) for k in list(kwargs) if k in names}
-    if fields:
-        model = kwargs.pop("model", None) or jc.scenes.ChainModel()
-        kwargs["model"] = model.replace(**fields)
-    return kwargs

@@ -25,7 +25,14 @@ from .._scene import Scene
 from .._solve.simulate import simulate
 from .._statistics import engagement_peaks
 
-__all__ = ["second_law", "sharp_peak", "remeasure", "engagement_sample", "solve_threads"]
+__all__ = [
+    "second_law",
+    "sharp_peak",
+    "remeasure",
+    "engagement_sample",
+    "solve_threads",
+    "solve_each",
+]
 
 #: the finest spacing [s] and the most save times of :func:`sharp_peak`'s dense output
 SPACING, MAX_SAVES = 0.5e-6, 60_001
@@ -53,9 +60,10 @@ def solve_threads() -> int:
         return os.cpu_count() or 1
 
 
-def _each(solve: Callable, jobs: Sequence, threads: int | None) -> list:
-    """``solve(job)`` of every job, in order, ``threads`` at a time: independent XLA
-    solves, one per core; the results are those of one after the other, bit for bit."""
+def solve_each(solve: Callable, jobs: Sequence, threads: int | None = None) -> list:
+    """``solve(job)`` of every job, in order, ``threads`` at a time (default
+    :func:`solve_threads`): independent XLA solves, one per core; the results are those of
+    one after the other, bit for bit."""
     threads = min(solve_threads() if threads is None else threads, len(jobs))
     if threads > 1:
         with ThreadPoolExecutor(threads) as pool:
@@ -125,7 +133,7 @@ def remeasure(
         scene = member() if callable(member) and not isinstance(member, Scene) else member
         return sharp_peak(scene, t1, t_start=t_start, rtol=rtol)
 
-    members = _each(one, list(scenes), threads)
+    members = solve_each(one, list(scenes), threads)
     peaks = [m["peak_N"] for m in members]
     worst, mean = float(np.max(peaks)), float(np.mean(peaks))
     return {"peak_N": worst, "mean_peak_N": mean, "members": members}
