@@ -8,7 +8,6 @@ from pathlib import Path
 import pytest
 
 import jaxchain as jc
-from jaxchain._scenes import model as model_module
 
 from helpers import tree_allclose
 
@@ -61,7 +60,6 @@ def test_the_model_and_its_keywords_are_checked():
 
 
 def test_the_older_keywords_warn_with_the_new_spelling():
-    assert model_module.WARN
     with pytest.warns(DeprecationWarning, match=r"model=jc.scenes.ChainModel\(settle=\.\.\.\)"):
         jc.scenes.engagement(settle=False)
 

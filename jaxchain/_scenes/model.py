@@ -187,19 +187,16 @@ def model_of(caller: str, model: ChainModel | None, older: dict) -> ChainModel:
             f"{caller}: {', '.join(given)} given both as keywords and in model=; give each "
             "in the model"
         )
-    if WARN:
-        spelled = ", ".join(f"{k}=..." for k in older)
-        warnings.warn(
-            f"{caller}({spelled}): give these in model=jc.scenes.ChainModel({spelled}); "
-            "the keywords will be removed",
-            DeprecationWarning,
-            stacklevel=3,
-        )
+    spelled = ", ".join(f"{k}=..." for k in older)
+    warnings.warn(
+        f"{caller}({spelled}): give these in model=jc.scenes.ChainModel({spelled}); "
+        "the keywords will be removed",
+        DeprecationWarning,
+        stacklevel=3,
+    )
     return model.replace(**older)
 
 
-#: whether the older keywords warn (they build the same scene either way)
-WARN = True
 _DEFAULTS = {f.name: f.default for f in dataclasses.fields(ChainModel)}
 
 
