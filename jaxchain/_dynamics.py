@@ -323,6 +323,7 @@ def roller_normal_forces(y: DriveState, scene: Scene) -> Float[Array, "S R"]:
     """(S, R) each roller's normal force against each sprocket's teeth [N]: the normal law
     alone (it reads depth and approach, not the friction), so no friction law and none of
     its states are evaluated — what the per-step peak record samples."""
+    _check_state(y, scene, "roller_normal_forces")
     return _roller_contacts(y, scene, scene.roller_law, None, None, None).normal
 
 

@@ -118,6 +118,8 @@ def _in_dir(fn):
     return fn
 
 
+CM = jc.scenes.ChainModel
+
 # (id, call, error, match)
 BAD = [
     # ------------------------------------------------------------------------ loads
@@ -920,6 +922,41 @@ BAD = [
         lambda: DS(settle=False, elements=(Slide(inertia=0.0),)).build(),
         ValueError,
         r"build: Slide.dof_inertia\(scene\) must be finite and > 0",
+    ),
+    # ------------------------------------------------ the chain model and the re-measurement
+    (
+        "model-restitution",
+        lambda: CM(restitution=0.0),
+        ValueError,
+        r"restitution must be in \(0, 1\]",
+    ),
+    ("model-settle-str", lambda: CM(settle="no"), TypeError, "settle must be True or False"),
+    ("model-form", lambda: CM(form="wide"), ValueError, "form must be one of"),
+    ("model-shoe-law", lambda: CM(shoe_contact=1.0), TypeError, "shoe_contact must be"),
+    ("model-load-ramp", lambda: CM(load_ramp=-1.0), ValueError, "load_ramp must be >= 0"),
+    ("model-kind", lambda: jc.scenes.drive(model=0.5), TypeError, "model must be a jc.scenes"),
+    ("model-unknown-kw", lambda: jc.scenes.drive(settel=False), TypeError, "'settel'"),
+    ("peak-gate-str", lambda: jc.observers.PeakRecord(gate="yes"), TypeError, "gate must be"),
+    ("max-steps-0", lambda: jc.SolveOptions(max_steps=0), ValueError, "max_steps must be a"),
+    ("solve-each-threads", lambda: jc.design.solve_each(len, [[1]], "2"), TypeError, "threads"),
+    (
+        "normals-not-a-state",
+        lambda: jc.roller_normal_forces(jc.initial_state(SCENE).q, SCENE),
+        TypeError,
+        "roller_normal_forces: y must be a jc.DriveState",
+    ),
+    (
+        "sharp-peak-window",
+        lambda: jc.design.sharp_peak(SCENE, 1e-3, t_start=2e-3),
+        ValueError,
+        r"t_start must be in \[0, 0.001\] s",
+    ),
+    ("remeasure-one-scene", lambda: jc.design.remeasure(SCENE, 1e-3), TypeError, "sequence"),
+    (
+        "sample-discard",
+        lambda: jc.design.engagement_sample(SCENE, discard=-1),
+        ValueError,
+        "discard must be an integer >= 0",
     ),
 ]
 

@@ -64,6 +64,8 @@ def solve_each(solve: Callable, jobs: Sequence, threads: int | None = None) -> l
     """``solve(job)`` of every job, in order, ``threads`` at a time (default
     :func:`solve_threads`): independent XLA solves, one per core; the results are those of
     one after the other, bit for bit."""
+    if threads is not None:
+        checks.integer("threads", threads, lo=1)
     threads = min(solve_threads() if threads is None else threads, len(jobs))
     if threads > 1:
         with ThreadPoolExecutor(threads) as pool:
