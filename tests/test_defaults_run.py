@@ -64,7 +64,8 @@ def test_span_level_drive_defaults_run(rpm):
 def test_lubricated_defaults_run(builder, rpm):
     """The clearance chain with hot engine oil in its joints (the film law's defaults)."""
     oil = jc.contact.OilFilm(viscosity=0.01)
-    sc = getattr(jc.scenes, builder)(speed_rpm=rpm, fidelity="clearance", lubrication=oil)
+    model = jc.scenes.ChainModel(lubrication=oil)
+    sc = getattr(jc.scenes, builder)(speed_rpm=rpm, fidelity="clearance", model=model)
     sol = jc.simulate(sc, _periods(sc, rpm))
     assert sol.ok and float(sol.peak_contact_force) > 0, sol.message
 
