@@ -10,16 +10,15 @@ slow tests, e.g. tests/test_dahl_friction.py, tests/test_spans.py and
 tests/test_xla_flags.py, and by the default run's cheap checks.)"""
 
 import json
-import re
 from pathlib import Path
 
 import pytest
+from _numbers import check, quoted, same
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 README = (ROOT / "README.md").read_text()
 FIGURES = (ROOT / "docs" / "figures.md").read_text()
-NUMBER = r"([−+-]?\d+(?:\.\d+)?)"  # a number as the text writes it (− or - for minus)
 
 
 def result(name: str) -> dict:
@@ -31,28 +30,6 @@ def row(text: str, study: str) -> str:
     rows = [line for line in text.splitlines() if line.startswith("| ") and f"#{study})" in line]
     assert len(rows) == 1, f"{len(rows)} table rows link to #{study}"
     return rows[0]
-
-
-def quoted(text: str, pattern: str) -> tuple[str, ...]:
-    """The numbers ``pattern`` (``{}`` for each) finds in ``text``, as written."""
-    regex = re.escape(pattern).replace(r"\{\}", NUMBER)
-    found = re.search(regex, text)
-    assert found, f"{pattern!r} is not in {text!r}"
-    return found.groups()
-
-
-def same(value: float, written: str) -> bool:
-    """``value`` rounds to ``written`` (to as many decimals as it has)."""
-    w = written.replace("−", "-")
-    decimals = len(w.split(".")[1]) if "." in w else 0
-    return abs(value - float(w)) <= 0.5 * 10.0**-decimals * (1 + 1e-9)
-
-
-def check(text: str, pattern: str, *values: float) -> None:
-    numbers = quoted(text, pattern)
-    assert len(numbers) == len(values)
-    for n, v in zip(numbers, values, strict=True):
-        assert same(v, n), f"{pattern!r}: the text says {n}, the results {v:.6g}"
 
 
 def test_the_checks_fail_on_a_changed_number():
