@@ -170,7 +170,7 @@ stops unconverged. It is walking into the corner of the box that is the ISO mini
 form, where the objective is lower still, 915 N: the seating angle (97.5 % of its range)
 and the flank radius (96.6 %) towards their largest, the seating radius (11 %) towards
 its smallest. Only the seating angle has a sizeable gradient (−73 N per unit of `u` at
-the start, against ±0.4 for the two radii); Adam scales each coordinate's step by its own
+the start, against 0.41 and −0.34 for the two radii); Adam scales each coordinate's step by its own
 gradient history, so the radii move as fast, whichever way their small gradients point.
 The tip diameter's gradient is exactly zero (the roller never reaches the tip here): it
 stays at 50 %. The corner lies at `u = ±∞` on the sigmoid map, so run on, the loop would

@@ -108,7 +108,7 @@ Image(buf.getvalue())"""
 
 * **Tsit5 and Heun** diverge where the stiffest modes leave their stability region:
   h·ω_max ≈ 3 for Tsit5 (near its real-axis limit 3.5: those modes are damped by
-  ζ ≈ 7–20 %) and ≈ 1.0–1.3 for Heun (far below its real-axis limit 2: Heun holds no
+  ζ ≈ 7–12 %) and ≈ 1.0–1.2 for Heun (far below its real-axis limit 2: Heun holds no
   segment of the imaginary axis, so lightly damped modes limit it). The prediction from
   the linearization (growth ≤ 10⁸ over the horizon) matches within about 20 %.
 * **Euler** is limited by damping, not by ω alone: its region (the unit disc around −1)

@@ -281,7 +281,7 @@ fig = quiet.draw(rows, speeds, names)"""
   scatter at 500 and 1000 rpm; in oil by −3 to −11 % at 1000–2500 rpm, with the p95 by only
   +1 to −6 %. Designed against the worst member (1500 rpm), it is **worse at 500 rpm**:
   +24 % in oil, +10–11 % on the lumped chain already.
-* **The tooth with its ring** lowers the mean and p95 by 42–61 % dry and 32–37 % in oil at
+* **The tooth with its ring** lowers the mean and p95 by 42–60 % dry and 32–37 % in oil at
   1000–2500 rpm, and by 51 % dry but 22 % in oil at 500 rpm, where the oil has already
   softened the ISO form's impact. It evens out the two populations too.
 * **What the ring's gain is made of.** At rest the ring takes 1329 N of the wrap's radial

@@ -240,8 +240,8 @@ back up to 1340 N at iteration 9. The best iterate is iteration 8, with the grad
 down to 9 N from about 200 N; the job keeps it, not the last one. Whether that is
 converged the run cannot say: it stops at its budget of 10 iterations, the last step
 rose, and at iteration 6 the gradient jumped to 421 N before falling — the objective is
-rough where a rebound appears or vanishes. Every gradient but those of iterations 7 and
-8 was above the clipping norm, so Adam saw them clipped to 100 N. Nelder–Mead, on
+rough where a rebound appears or vanishes. Every gradient but those of iterations 7, 8
+and 9 were above the clipping norm, so Adam saw them clipped to 100 N. Nelder–Mead, on
 forward solves only, finds a plateau at 1494 N after 18 simulations, stays there for 60,
 and ends 1.9 N above Adam's best after 120 simulations: it never reaches it. But Adam's
 54 simulations to its best are value-and-gradient calls, each costing 2.9 forward calls
@@ -326,7 +326,7 @@ plt.show()"""
         """**What the re-measurement shows.** Under the law it was designed with, the delivered
 tooth lowers the worst peak from the minimum form's 2255 N to 1793 N, 20.5 %; the ISO
 minimum form is the best of the three ISO forms, the maximum form the worst (2892 N).
-The gain is all at 1000 and 1500 rpm (−17 to −21 %); at 500 rpm the delivered tooth is
+The gain is all at 1000 and 1500 rpm (−17 to −20 %); at 500 rpm the delivered tooth is
 *worse* than the minimum form by 10–11 % (888 against 798–808 N), below the worst
 member's peak, so the worst-case objective does not see it. Under the Hertz law the same
 tooth gains only 3.1 % in the worst member (1062 against 1096 N), and only at 1500 rpm
@@ -461,7 +461,7 @@ peaks again (to a few parts in 10⁶ at rtol 1e-9: other steps on another machin
 compiler flags). Three rollers mesh in the window, one per
 tooth period; at each the delivered tooth's impact peak is 430–460 N lower (full mode),
 and the minimum form's isolated spikes between the meshings are absent. Not all its force
-is lower: its median force in each period is about 90–140 N higher (569–614 against
+is lower: its median force in each period is about 90–140 N higher (568–614 against
 476–481 N), it carries more before each impact, and it rings higher for about half a
 millisecond after each. The gain is in the impact peaks, the quantity the job minimizes."""
     ),
