@@ -60,6 +60,7 @@ profile is swapped in and the start resettled to first order (``jc.scenes.resett
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -145,7 +146,7 @@ def strand(model: str, n_entry: int, u=U0) -> jc.Scene:
         else g
         for g in scene.pairs
     )
-    return jc.scenes.equilibrate(eqx.tree_at(lambda s: s.pairs, scene, pairs))
+    return jc.scenes.equilibrate(dataclasses.replace(scene, pairs=pairs))
 
 
 def with_profile(scene: jc.Scene, u) -> jc.Scene:

@@ -67,6 +67,7 @@ on the nominal member (full run).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -148,7 +149,7 @@ def joint_laws_with(scene, **values):
         else g
         for g in scene.pairs
     )
-    return eqx.tree_at(lambda s: s.pairs, scene, pairs)
+    return dataclasses.replace(scene, pairs=pairs)
 
 
 def fidelity_scene(fidelity, speed_rpm, span_softening=SPAN_SOFTENING):

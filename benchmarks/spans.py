@@ -126,7 +126,7 @@ def gradient(rpm: float, revolutions: int, steps_us=(20.0, 10.0, 5.0)) -> list[d
     )  # fmt: skip
     from jaxchain.scenes import span_element  # the element, rebuilt from traced profiles
 
-    el = base.elements[0]
+    el = base.added[0]
     centres = jnp.stack([s.centre for s in base.sprockets])
     theta0 = jnp.zeros(2)
     tension0 = el.tensions(theta0, theta0, centres)[0]  # at rest: the statics' tensions
@@ -141,7 +141,7 @@ def gradient(rpm: float, revolutions: int, steps_us=(20.0, 10.0, 5.0)) -> list[d
         def objective(amplitude, dt=dt_us * 1e-6):
             oval, _ = profiles(amplitude)
             spans = span_element((oval, round36), centres, el.sense, tension0, ea, ca)
-            scene = eqx.tree_at(lambda s: s.elements, base, (spans,))
+            scene = eqx.tree_at(lambda s: s.added[0], base, spans)
             sol = jc.simulate(scene, rev * revolutions, ts=ts, dt=dt, throw=False)
             angle = sol.sprocket_angle[:, 0]
             return order_amplitude(sol.link_tension[:, 1], angle, 2) ** 2

@@ -45,6 +45,7 @@ differences.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -190,7 +191,7 @@ def stiffened(scene: jc.Scene, s: float) -> jc.Scene:
         )
         for g in sc.pairs
     )
-    sc = eqx.tree_at(lambda x: x.pairs, sc, links)
+    sc = dataclasses.replace(sc, pairs=links)
     an = sc.anchors
     sc = eqx.tree_at(
         lambda x: (x.anchors.stiffness, x.anchors.damping),

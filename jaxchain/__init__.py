@@ -25,6 +25,12 @@ from ._dynamics import (
     roller_normal_forces as roller_normal_forces,
     vector_field as vector_field,
 )
+from ._elements.anchors import Anchors as Anchors
+from ._elements.pairs import (
+    ClearanceJoints as ClearanceJoints,
+    LinkSprings as LinkSprings,
+    PairGroup as PairGroup,
+)
 from ._materials import STEEL as STEEL, Material as Material, effective_modulus as effective_modulus
 from ._plots.drive import (
     animate as animate,
@@ -47,14 +53,7 @@ from ._profiles.iso import (
     ToothProfile as ToothProfile,
     iso606_limits as iso606_limits,
 )
-from ._scene import (
-    Anchors as Anchors,
-    ClearanceJoints as ClearanceJoints,
-    LinkSprings as LinkSprings,
-    PairGroup as PairGroup,
-    Scene as Scene,
-    Sprocket as Sprocket,
-)
+from ._scene import Scene as Scene, Sprocket as Sprocket
 from ._solve.adjoint import StepResidualsAdjoint as StepResidualsAdjoint
 from ._solve.ensemble import (
     EnsembleSolution as EnsembleSolution,

@@ -11,7 +11,7 @@ few) elements and sprockets.
 from __future__ import annotations
 
 import warnings
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -19,11 +19,12 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from . import _checks as checks
-from ._elements.base import Effect, ElementState
-from ._elements.pairs import chain_tension
-from ._elements.rollers import RollerContacts, RollerTeeth, roller_contacts as _roller_contacts
+from ._elements.base import Effect, ElementState, chain_tension
 from ._kinematics import points as _points, span_tension as _span_tension
 from ._scene import Scene
+
+if TYPE_CHECKING:
+    from ._elements.rollers import RollerContacts
 
 __all__ = [
     "DriveState",
@@ -243,7 +244,7 @@ def bristle_layout(scene: Scene) -> tuple[tuple[str, int, int, int], ...]:
     """Where each force element with states of its own (a Dahl joint friction, a user's
     element) keeps them in ``DriveState.bristle`` (static): (kind, index, start, count),
     kind ``"pairs"`` for ``scene.pairs[index]``, ``"joints"`` for the lumped chain's
-    joint friction, ``"elements"`` for ``scene.elements[index]``."""
+    joint friction, ``"elements"`` for ``scene.added[index]``."""
     out, start = [], 0
     for kind, i, el in _labelled(scene):
         k = el.n_states(scene)
@@ -254,15 +255,16 @@ def bristle_layout(scene: Scene) -> tuple[tuple[str, int, int, int], ...]:
 
 
 def _labelled(scene: Scene):
-    """(kind, index, element) of every force element, in ``scene.force_elements`` order."""
-    own = len(scene.force_elements) - len(scene.elements)
-    np_ = len(scene.pairs)
-    for i, el in enumerate(scene.force_elements):
-        if i < np_:
-            yield "pairs", i, el
-        elif i >= own:
-            yield "elements", i - own, el
-        elif el is scene.joint_friction:
+    """(kind, index, element) of every force element, in ``scene.force_elements`` order:
+    ``"pairs"`` and its index among the pairs, ``"joints"`` for the lumped chain's joint
+    friction, ``"elements"`` and its index among the added ones, else the class name."""
+    counts = {"pairs": 0, None: 0}
+    for el in scene.force_elements:
+        if el.role in counts:
+            kind = "pairs" if el.role == "pairs" else "elements"
+            yield kind, counts[el.role], el
+            counts[el.role] += 1
+        elif el.role == "joint_friction":
             yield "joints", 0, el
         else:
             yield type(el).__name__, 0, el
@@ -311,12 +313,12 @@ def roller_kinematics(y: DriveState, scene: Scene) -> tuple[Array, Array]:
 def roller_contacts(y: DriveState, scene: Scene, cs=None) -> RollerContacts:
     """The scene's rollers against every sprocket's teeth; all the chain's other elements
     are skipped (what the per-step peak record needs)."""
-    teeth = RollerTeeth(scene.roller_law, scene.friction)
-    states = None
+    teeth = scene.roller_teeth
+    state = None
     if teeth.n_states(scene):  # a friction law with states: this element's slice of them
-        at = [i for i, el in enumerate(scene.force_elements) if isinstance(el, RollerTeeth)][0]
-        states = teeth.contact_states(scene, _element_states(y, scene)[at])
-    return _roller_contacts(y, scene, scene.roller_law, scene.friction, cs, states)
+        at = next(i for i, el in enumerate(scene.force_elements) if el is teeth)
+        state = _element_states(y, scene)[at]
+    return teeth.contacts(y, scene, cs, state)
 
 
 def roller_normal_forces(y: DriveState, scene: Scene) -> Float[Array, "S R"]:
@@ -324,7 +326,7 @@ def roller_normal_forces(y: DriveState, scene: Scene) -> Float[Array, "S R"]:
     alone (it reads depth and approach, not the friction), so no friction law and none of
     its states are evaluated — what the per-step peak record samples."""
     _check_state(y, scene, "roller_normal_forces")
-    return _roller_contacts(y, scene, scene.roller_law, None, None, None).normal
+    return scene.roller_teeth.contacts(y, scene, friction=False).normal
 
 
 def contact_slots_ok(y: DriveState, scene: Scene) -> Array:

@@ -10,38 +10,29 @@ Bodies of the chain are planar rigid bodies with state (x, y, φ): links in the
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import TYPE_CHECKING
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ._contact.base import AbstractContactLaw
-from ._contact.friction_base import AbstractFrictionLaw
-from ._elements.anchors import Anchors
 from ._elements.base import AbstractElement
-from ._elements.gravity import Gravity
-from ._elements.joint_friction import JointFriction
-from ._elements.pairs import ClearanceJoints, LinkSprings, PairGroup
-from ._elements.rollers import RollerTeeth
-from ._elements.shoes import Shoes
-from ._elements.tensioners import Tensioners
 from ._loads import AbstractLoad, as_load
 from ._numerics import is_concrete
 from ._profiles.base import AbstractProfile
 
-__all__ = [
-    "Sprocket",
-    "LinkSprings",
-    "ClearanceJoints",
-    "PairGroup",
-    "JointFriction",
-    "Anchors",
-    "Tensioners",
-    "Shoes",
-    "Scene",
-]
+if TYPE_CHECKING:  # the views' types
+    from ._contact.base import AbstractContactLaw
+    from ._contact.friction_base import AbstractFrictionLaw
+    from ._elements.anchors import Anchors
+    from ._elements.joint_friction import JointFriction
+    from ._elements.pairs import PairGroup
+    from ._elements.rollers import RollerTeeth
+    from ._elements.shoes import Shoes
+    from ._elements.tensioners import Tensioners
+
+__all__ = ["Sprocket", "Scene", "ROLES"]
 
 
 class Sprocket(eqx.Module):
@@ -180,21 +171,85 @@ class Sprocket(eqx.Module):
             raise ValueError(f"a driven sprocket needs inertia > 0 kg·m², got {self.inertia}")
 
 
+#: the parts of a drive its built-in force elements play (``AbstractElement.role``), in
+#: the order the equations of motion sum their forces; the other elements follow
+ROLES = ("pairs", "joint_friction", "anchors", "roller_teeth", "shoes", "tensioners", "gravity")
+#: the views a Scene keeps of its built-in elements, and (for the keyword of the same
+#: name) what giving one changes: a role's element(s), or a field of one
+_NAMED = {
+    "pairs": "pairs",
+    "joint_friction": "joint_friction",
+    "anchors": "anchors",
+    "shoes": "shoes",
+    "tensioners": "tensioners",
+    "roller_law": ("roller_teeth", "law"),
+    "friction": ("roller_teeth", "friction"),
+    "gravity": ("gravity", "acceleration"),
+}
+
+
+def _arranged(elements, named: dict) -> tuple[AbstractElement, ...]:
+    """``elements`` with the built-in parts ``named`` gives (Scene's view names) put in
+    place, ordered by :data:`ROLES` then the rest in their order."""
+    by_role: dict[str, list] = {r: [] for r in ROLES}
+    rest = []
+    for el in elements:
+        if el is None:
+            continue
+        if not isinstance(el, AbstractElement):
+            raise TypeError(
+                "Scene: elements must be jc.elements.AbstractElement instances, got "
+                f"{type(el).__name__}"
+            )
+        if el.role is not None and el.role not in by_role:
+            raise ValueError(f"Scene: {type(el).__name__}.role {el.role!r} is none of {ROLES}")
+        (rest if el.role is None else by_role[el.role]).append(el)
+    for name, value in named.items():
+        target = _NAMED[name]
+        if isinstance(target, str):
+            given = tuple(value) if name == "pairs" else (() if value is None else (value,))
+            for el in given:
+                if not isinstance(el, AbstractElement) or el.role != target:
+                    raise TypeError(
+                        f"Scene: {name} must hold elements whose role is {target!r}, got "
+                        f"{type(el).__name__}"
+                    )
+            by_role[target] = list(given)
+        else:
+            role, field = target
+            if not by_role[role]:
+                raise TypeError(
+                    f"Scene: {name} is a field of the scene's {role!r} element, which it does "
+                    "not hold: give that element in elements"
+                )
+            by_role[role] = [dataclasses.replace(by_role[role][0], **{field: value})]
+    for role, found in by_role.items():
+        if role != "pairs" and len(found) > 1:
+            raise ValueError(f"Scene: {len(found)} elements play {role!r}; a scene holds one")
+    return tuple(el for role in ROLES for el in by_role[role]) + tuple(rest)
+
+
 class Scene(eqx.Module):
     """Everything the vector field needs. Built by :mod:`jaxchain.scenes`.
+
+    A scene is its bodies, its sprockets and its force elements. The built-in elements
+    play the parts :data:`ROLES` names (``AbstractElement.role``), and the scene keeps a
+    view of each under that name, read-only: ``pairs`` (the two-point groups: links or
+    joints), ``joint_friction`` (the lumped chain's joint friction, or None: the
+    clearance fidelity carries it in its :class:`ClearanceJoints`), ``anchors`` (tension
+    anchors of an open strand, or None), ``roller_law`` and ``friction`` (the roller/tooth
+    contact's normal law and friction, or None), ``shoes`` (tensioner shoes and fixed
+    guides, or None), ``tensioners`` (tensioner arms, or None) and ``gravity`` ((2,)
+    [m/s²]). Giving one of these names as a keyword (``dataclasses.replace(scene,
+    friction=law)``) puts that part in place; :meth:`add_elements` adds elements of your
+    own.
 
     Attributes:
         mass: (N,) body masses [kg].
         inertia: (N,) body polar inertias [kg·m²].
-        pairs: groups of two-point force elements.
         roller_body: (R,) body carrying each roller's centre.
         roller_offset: (R, 2) roller centre in that body's frame [m].
-        roller_law: roller/tooth normal contact law.
-        friction: roller/tooth friction or None.
         sprockets: the sprockets (static count).
-        anchors: tension anchors of an open strand, or None.
-        joint_friction: friction in the lumped chain's joints, or None (the clearance
-            fidelity carries it in its :class:`ClearanceJoints`).
         impact_speed: reference impact speed of the history-free contact damping [m/s]
             (a law with restitution e gives e at this impact speed; see docs).
         q0, v0: (N, 3) initial positions (x, y, φ) and velocities.
@@ -204,15 +259,10 @@ class Scene(eqx.Module):
             ``inf`` for a closed drive). A solve past it is reported as ``past_horizon``.
         tensile_strength: the chain's minimum tensile strength [N] (ISO 606); a link
             tension beyond it is reported as ``chain_overloaded``.
-        fidelity: "lumped" or "clearance" (static).
-        gravity: (2,) [m/s²].
-        tensioners: tensioner arms, or None.
-        shoes: tensioner shoes and fixed guides, or None.
-        prepared_shapes: None, except inside a solve: the sprockets' contact shapes
-            computed once before its loop (``jaxchain._elements.rollers.prepare``).
-        elements: force elements added to the drive's own
-            (:class:`jc.elements.AbstractElement <jaxchain.elements.AbstractElement>`;
-            :meth:`add_elements`).
+        fidelity: "lumped", "clearance" or "spans" (static).
+        elements: every force element, in the order the equations of motion sum them:
+            the built-in parts in :data:`ROLES` order, then the others
+            (:class:`jc.elements.AbstractElement <jaxchain.elements.AbstractElement>`).
         bush_link: a bush chain's (R, 2) roller indices of the two bushes of the inner
             link each bush is part of: the bush turns with that link, so it slides on the
             tooth (the contact's slip includes the link's rotation, and the friction's
@@ -222,71 +272,109 @@ class Scene(eqx.Module):
 
     mass: Float[Array, " N"]
     inertia: Float[Array, " N"]
-    pairs: tuple[PairGroup, ...]
     roller_body: Int[Array, " R"]
     roller_offset: Float[Array, "R 2"]
-    roller_law: AbstractContactLaw
-    friction: AbstractFrictionLaw | None
     sprockets: tuple[Sprocket, ...]
-    anchors: Anchors | None
-    joint_friction: JointFriction | None
     impact_speed: Float[Array, ""]
     q0: Float[Array, "N 3"]
     v0: Float[Array, "N 3"]
     link_weights: Float[Array, "L E"]
-    gravity: Float[Array, 2]
     horizon: Float[Array, ""]
     tensile_strength: Float[Array, ""]
     fidelity: str = eqx.field(static=True)
-    tensioners: Tensioners | None = None
-    shoes: Shoes | None = None
-    prepared_shapes: Any = None
     elements: tuple[AbstractElement, ...] = ()
     bush_link: Int[Array, "R 2"] | None = None
 
-    def __check_init__(self):
-        for el in self.elements:
-            if not isinstance(el, AbstractElement):
-                raise TypeError(
-                    "Scene: elements must be jc.elements.AbstractElement instances, got "
-                    f"{type(el).__name__}"
-                )
+    def __init__(self, *, elements=(), bush_link=None, **fields):
+        named = {k: fields.pop(k) for k in list(fields) if k in _NAMED}
+        own = {f.name for f in dataclasses.fields(type(self))} - {"elements", "bush_link"}
+        if set(fields) != own:
+            raise TypeError(
+                f"Scene: missing field(s) {sorted(own - set(fields))}, unexpected keyword(s) "
+                f"{sorted(set(fields) - own)} (the elements' views: {sorted(_NAMED)})"
+            )
+        for name, value in fields.items():
+            setattr(self, name, value)
+        self.elements = _arranged(tuple(elements), named)
+        self.bush_link = bush_link
+
+    def _role(self, role: str):
+        found = [el for el in self.elements if el is not None and el.role == role]
+        return found[0] if found else None
+
+    @property
+    def pairs(self) -> tuple[PairGroup, ...]:
+        """The two-point groups (links or joints)."""
+        return tuple(el for el in self.elements if el is not None and el.role == "pairs")
+
+    @property
+    def joint_friction(self) -> JointFriction | None:
+        return self._role("joint_friction")
+
+    @property
+    def anchors(self) -> Anchors | None:
+        return self._role("anchors")
+
+    @property
+    def shoes(self) -> Shoes | None:
+        return self._role("shoes")
+
+    @property
+    def tensioners(self) -> Tensioners | None:
+        return self._role("tensioners")
+
+    @property
+    def roller_teeth(self) -> RollerTeeth:
+        """The roller/tooth contact element (its ``law`` and ``friction``)."""
+        return self._role("roller_teeth")
+
+    @property
+    def roller_law(self) -> AbstractContactLaw:
+        return self.roller_teeth.law
+
+    @property
+    def friction(self) -> AbstractFrictionLaw | None:
+        return self.roller_teeth.friction
+
+    @property
+    def gravity(self) -> Float[Array, 2]:
+        el = self._role("gravity")
+        return jnp.zeros(2) if el is None else el.acceleration
+
+    @property
+    def prepared_shapes(self):
+        """None, except inside a solve: the sprockets' contact shapes computed once before
+        its loop (:meth:`prepared`)."""
+        teeth = self.roller_teeth
+        return None if teeth is None else teeth.shapes
+
+    @property
+    def added(self) -> tuple[AbstractElement, ...]:
+        """The elements that play no built-in part (:meth:`add_elements`'s)."""
+        return tuple(el for el in self.elements if el is not None and el.role is None)
 
     @property
     def force_elements(self) -> tuple[AbstractElement, ...]:
         """Every force element of the drive, in the order the equations of motion sum
-        them: the two-point groups (links or joints), the lumped chain's joint friction,
-        the anchors, the roller/tooth contacts, the shoes, the tensioner springs, gravity,
-        then :attr:`elements`."""
-        own = [*self.pairs, self.joint_friction, self.anchors]
-        own += [RollerTeeth(self.roller_law, self.friction), self.shoes, self.tensioners]
-        own.append(Gravity(self.gravity))
-        return tuple(e for e in own if e is not None) + tuple(self.elements)
+        them (:attr:`elements`)."""
+        return tuple(el for el in self.elements if el is not None)
+
+    def prepared(self) -> Scene:
+        """This scene with what each element computes once per solve
+        (``AbstractElement.prepared``)."""
+        return dataclasses.replace(
+            self, elements=tuple(el.prepared(self) for el in self.force_elements)
+        )
 
     def with_force_element(self, index: int, element: AbstractElement) -> Scene:
-        """This scene with ``force_elements[index]`` replaced by ``element`` (an element
-        the scene holds: a two-point group, a named one or an added one)."""
-        held = self.force_elements
-        own = len(held) - len(self.elements)
-        if index < len(self.pairs):
-            pairs = list(self.pairs)
-            pairs[index] = element
-            return dataclasses.replace(self, pairs=tuple(pairs))
-        if index >= own:
-            added = list(self.elements)
-            added[index - own] = element
-            return dataclasses.replace(self, elements=tuple(added))
-        for name in ("joint_friction", "anchors", "shoes", "tensioners"):
-            if getattr(self, name) is held[index]:
-                return dataclasses.replace(self, **{name: element})
-        raise ValueError(
-            f"Scene.with_force_element: force element {index} "
-            f"({type(held[index]).__name__}) is made from the scene's other fields"
-        )
+        """This scene with ``force_elements[index]`` replaced by ``element``."""
+        held = list(self.force_elements)
+        held[index] = element
+        return dataclasses.replace(self, elements=tuple(held))
 
     def add_elements(self, *elements: AbstractElement) -> Scene:
         """This scene with ``elements`` added to its force elements."""
-        return dataclasses.replace(self, elements=tuple(self.elements) + tuple(elements))
+        return dataclasses.replace(self, elements=self.force_elements + tuple(elements))
 
     @property
     def n_bodies(self) -> int:

@@ -2,7 +2,7 @@
 
 element = MyDamper(...)                       # a subclass of AbstractElement
 scene = scene.add_elements(element)           # simulate, settle, design as usual
-scene.force_elements                          # the drive's own elements, then the added
+scene.elements                                # the drive's own parts, then the added
 
 A subclass implements ``effect(t, y, scene, state) -> Effect`` (generalized forces on
 the chain's bodies, torques on sprockets and tensioner arms, the rates of its own

@@ -187,7 +187,7 @@ class TimingObjective:
         self.s = s
         scenes = [build(rpm) for rpm in s.speeds]
         self.base = jc.scenes.stack(scenes)
-        el = scenes[0].elements[0]
+        el = scenes[0].added[0]
         self.centres = jnp.stack([sp.centre for sp in scenes[0].sprockets])
         zero = jnp.zeros(len(TEETH))
         arm0 = scenes[0].tensioners.angle0
@@ -228,7 +228,7 @@ class TimingObjective:
         k, c = tensioner_rates(u)
         tn = scene.tensioners
         tn = eqx.tree_at(lambda t: (t.stiffness, t.damping), tn, (k[None], c[None]))
-        return eqx.tree_at(lambda x: (x.elements, x.tensioners), scene, ((spans,), tn))
+        return eqx.tree_at(lambda x: (x.added[0], x.tensioners), scene, (spans, tn))
 
     def _one(self, u, scene, t1, ts):
         sol = jc.simulate(self._scene(u, scene), t1, ts=ts, n_steps=self.s.steps, throw=False)

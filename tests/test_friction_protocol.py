@@ -4,6 +4,7 @@ the built-in law it re-implements (its states kept and integrated by the joints)
 law with two states per contact is routed through the drive state too; so is a user's law
 with states at the roller/tooth contacts."""
 
+import dataclasses
 from typing import ClassVar
 
 import equinox as eqx
@@ -65,9 +66,9 @@ def _with_law(scene, law):
     element; clearance: every clearance joint's contacts)."""
     if scene.joint_friction is not None:
         return eqx.tree_at(lambda s: s.joint_friction.law, scene, law)
-    return eqx.tree_at(lambda s: s.pairs, scene, replace_fn=lambda ps: tuple(
-        eqx.tree_at(lambda g: g.element.friction, g, law) for g in ps
-    ))  # fmt: skip
+    return dataclasses.replace(
+        scene, pairs=tuple(eqx.tree_at(lambda g: g.element.friction, g, law) for g in scene.pairs)
+    )
 
 
 def _sliding(scene, seed=0):

@@ -62,7 +62,7 @@ def test_torques_are_the_span_lines_moment_arms():
         profiles=(oval(), ISO36, jc.ToothProfile.iso606(CHAIN, 27)), outside=(2,),
         load_torque=(10.0, 0.0), pretension=300.0, fidelity="spans",
     )  # fmt: skip
-    el = scene.elements[0]
+    el = scene.added[0]
     centres = jnp.stack([s.centre for s in scene.sprockets])
 
     @jax.jit
@@ -117,7 +117,7 @@ def test_the_tensioner_shoe_is_laid_out_as_in_the_lumped_chain():
     np.testing.assert_allclose(slack, 200.0, rtol=1e-9)
     np.testing.assert_allclose(tight - slack, 20.0 / (36 * CHAIN.pitch / (2 * math.pi)), rtol=1e-9)
     assert abs(float(fr.dof_force[0])) < 2e-3 * float(spans.tensioners.preload[0])
-    el = spans.elements[0]
+    el = spans.added[0]
     centres = jnp.stack([s.centre for s in spans.sprockets])
     for theta, arm in (([0.0, 0.0], 0.0), ([0.7, -0.2], 0.01)):
         theta, arm = jnp.asarray(theta), y.dof + arm
@@ -148,7 +148,7 @@ def test_the_span_element_is_differentiable_in_the_pitch_curve():
         CHAIN, teeth=(18, 36), profiles=(oval(), ISO36), load_torque=20.0, pretension=200.0,
         fidelity="spans",
     )  # fmt: skip
-    el = base.elements[0]
+    el = base.added[0]
     centres = jnp.stack([s.centre for s in base.sprockets])
     theta, omega = jnp.asarray([0.4, 0.15]), jnp.asarray([100.0, 50.0])
     perimeter = jnp.asarray([18 * CHAIN.pitch, 36 * CHAIN.pitch])
@@ -180,7 +180,7 @@ def test_design_gradient_matches_central_differences():
         CHAIN, teeth=(18, 36), profiles=(oval(), ISO36), speed_rpm=2000, load_torque=20.0,
         pretension=200.0, fidelity="spans",
     )  # fmt: skip
-    el = base.elements[0]
+    el = base.added[0]
     centres = jnp.stack([s.centre for s in base.sprockets])
     zero = jnp.zeros(2)
     tension0 = el.tensions(zero, zero, centres)[0]
@@ -192,7 +192,7 @@ def test_design_gradient_matches_central_differences():
     @jax.jit
     def objective(a):
         spans = jc.scenes.span_element((oval(a), ISO36), centres, el.sense, tension0, ea, ca)
-        scene = eqx.tree_at(lambda s: s.elements, base, (spans,))
+        scene = eqx.tree_at(lambda s: s.added[0], base, spans)
         sol = jc.simulate(scene, 10 * rev, ts=ts, n_steps=15_000, throw=False)
         return jnp.mean(sol.link_tension[:, 1] ** 2)
 

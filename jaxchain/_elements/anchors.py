@@ -20,6 +20,8 @@ class Anchors(AbstractElement):
     moves, so the springs store no energy of a conserved total (:meth:`energy` is 0).
     """
 
+    role = "anchors"
+
     body: Int[Array, " A"]
     origin: Float[Array, "A 2"]
     direction: Float[Array, "A 2"]

@@ -16,6 +16,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .._kinematics import rot
+
 __all__ = ["AbstractElement", "Effect", "ElementState"]
 
 
@@ -88,11 +90,20 @@ class AbstractElement(eqx.Module):
     """
 
     energy_kind = "elastic"
+    #: the part of a drive a built-in element plays (``Scene``'s views ``pairs``,
+    #: ``joint_friction``, ``anchors``, ``roller_teeth``, ``shoes``, ``tensioners``,
+    #: ``gravity`` find it by this); None for every other element, the user's among them
+    role = None
     #: True: :meth:`effect` takes a keyword ``tension``, the (E,) tensions [N] that the
     #: elements before it in ``Scene.force_elements`` carry (their ``Effect.tension``,
     #: concatenated), so that it need not compute them again (joint friction loads its
     #: joints with them); called without it, the element computes them itself.
     reads_tension = False
+
+    def prepared(self, scene) -> AbstractElement:
+        """This element with what it computes once per solve, before the solver's loop
+        (the roller contacts' tooth shapes); the default computes nothing."""
+        return self
 
     def n_states(self, scene) -> int:
         """How many states of its own it carries in ``DriveState.bristle`` (static)."""
@@ -174,3 +185,11 @@ class AbstractElement(eqx.Module):
         that check only the nearest rollers); True for the others."""
         del y, scene
         return jnp.asarray(True)
+
+
+def chain_tension(y, scene) -> Array:
+    """(E,) tensions of the scene's tension-carrying elements [N] (link springs, pin/bush
+    joints: the pairs that ``carries_tension``), in the order of ``scene.pairs``."""
+    cs = rot(y.q[:, 2])
+    parts = [g.tensions(y, scene, cs) for g in scene.pairs if g.carries_tension]
+    return jnp.concatenate(parts) if parts else jnp.zeros((0,), y.q.dtype)

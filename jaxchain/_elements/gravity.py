@@ -14,6 +14,8 @@ class Gravity(AbstractElement):
     """Uniform gravity ``acceleration`` (2,) [m/s²] on every chain body's mass; its energy
     is −Σ m·g·x."""
 
+    role = "gravity"
+
     acceleration: Float[Array, 2]
     energy_kind = "gravity"
 

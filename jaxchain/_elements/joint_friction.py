@@ -34,6 +34,8 @@ class JointFriction(AbstractElement):
     statics do not change.
     """
 
+    role = "joint_friction"
+
     before: Int[Array, " J"]
     joint: Int[Array, " J"]
     after: Int[Array, " J"]

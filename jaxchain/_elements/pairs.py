@@ -17,7 +17,7 @@ from .._contact.friction_base import AbstractFrictionLaw, contact_states, flat_r
 from .._contact.stiffness import tangent_stiffness
 from .._kinematics import perp, points, rot, scatter
 from .._numerics import cross2, safe_norm, safe_normalize
-from .base import AbstractElement, Effect
+from .base import AbstractElement, Effect, chain_tension
 
 __all__ = ["LinkSprings", "ClearanceJoints", "PairGroup", "chain_tension"]
 
@@ -115,6 +115,8 @@ class PairGroup(AbstractElement):
         carries_tension: whether these elements transmit the chain's tension (links and
             pin/bush joints), reported as link tension; False for bush/roller joints.
     """
+
+    role = "pairs"
 
     a: Int[Array, " P"]
     b: Int[Array, " P"]
@@ -227,14 +229,7 @@ class PairGroup(AbstractElement):
     def max_stiffness(self, scene, force) -> Array:
         return self.element.tangent(force)
 
-
-def chain_tension(y, scene) -> Array:
-    """(E,) tensions of the scene's tension-carrying elements [N] (link springs, pin/bush
-    joints), in the order of ``scene.pairs``."""
-    cs = rot(y.q[:, 2])
-    parts = [
-        g.state(y.q, y.v, scene.impact_speed, cs).chain_tension
-        for g in scene.pairs
-        if g.carries_tension
-    ]
-    return jnp.concatenate(parts) if parts else jnp.zeros((0,), y.q.dtype)
+    def tensions(self, y, scene, cs=None) -> Array:
+        """(P,) the force pulling each a toward its b [N] (``chain_tension`` reads the
+        tension-carrying groups')."""
+        return self.state(y.q, y.v, scene.impact_speed, cs).chain_tension

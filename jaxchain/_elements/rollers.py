@@ -19,7 +19,7 @@ instead of relaxing it at |v_t|/x_s, which would be the stiffest rate of the dri
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
@@ -34,7 +34,7 @@ from .._numerics import cross2
 from .._profiles.contact import gap_contact, gap_shapes, prepare_shapes
 from .base import AbstractElement, Effect
 
-__all__ = ["RollerTeeth", "RollerContacts", "roller_contacts", "prepare", "STATE_GATE"]
+__all__ = ["RollerTeeth", "RollerContacts", "roller_contacts", "STATE_GATE"]
 
 #: normal force [N] at which a roller/tooth contact's friction states move at half their
 #: law's rate (they hold still while it carries no load)
@@ -63,16 +63,6 @@ def _contact_slots(scene, n_rollers: int) -> int | None:
     if any(k is None or k >= n_rollers for k in slots):
         return None
     return max(slots)
-
-
-def prepare(scene):
-    """``scene`` with its sprockets' contact shapes computed once (with what each shape
-    computes ahead: a free-form profile's every gap outline), for the steps of one solve to
-    read: the shapes depend on the profiles alone, so computing them in every evaluation
-    of the contact would repeat the same work at every stage, and a gradient would pull
-    back through them at every stage too."""
-    shapes = prepare_shapes(gap_shapes([s.profile for s in scene.sprockets]))
-    return eqx.tree_at(lambda s: s.prepared_shapes, scene, shapes, is_leaf=lambda x: x is None)
 
 
 def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerContacts:
@@ -168,16 +158,39 @@ def roller_contacts(y, scene, law, friction, cs=None, states=None) -> RollerCont
 
 class RollerTeeth(AbstractElement):
     """The rollers against every sprocket's teeth: normal contact ``law`` and
-    ``friction`` (None: frictionless). Each roller sees its sprocket's nearest gap."""
+    ``friction`` (None: frictionless). Each roller sees its sprocket's nearest gap.
+    ``shapes``: None, except inside a solve: the sprockets' contact shapes computed once
+    before its loop (:meth:`prepared`)."""
+
+    role = "roller_teeth"
 
     law: AbstractContactLaw
     friction: AbstractFrictionLaw | None
+    shapes: Any = None
+
+    def prepared(self, scene) -> RollerTeeth:
+        """The sprockets' contact shapes computed once (with what each shape computes
+        ahead: a free-form profile's every gap outline), for the steps of one solve to
+        read: the shapes depend on the profiles alone, so computing them in every
+        evaluation of the contact would repeat the same work at every stage, and a
+        gradient would pull back through them at every stage too."""
+        shapes = prepare_shapes(gap_shapes([s.profile for s in scene.sprockets]))
+        return eqx.tree_at(lambda e: e.shapes, self, shapes, is_leaf=lambda x: x is None)
 
     def n_states(self, scene) -> int:
         """A friction law's states, per sprocket and roller (module docstring)."""
         if self.friction is None:
             return 0
         return len(scene.sprockets) * scene.n_rollers * self.friction.states_per_contact
+
+    def contacts(self, y, scene, cs=None, state=None, friction=True) -> RollerContacts:
+        """The rollers against every sprocket's teeth (:func:`roller_contacts`), with this
+        element's slice of the drive's states ``state``; ``friction=False``: the normal law
+        alone (no friction law, none of its states)."""
+        if not friction:
+            return roller_contacts(y, scene, self.law, None, cs, None)
+        states = self.contact_states(scene, state)
+        return roller_contacts(y, scene, self.law, self.friction, cs, states)
 
     def contact_states(self, scene, state):
         """``state`` (this element's slice of the drive state) as (S, R[, k]), or None."""

@@ -62,6 +62,8 @@ class Shoes(AbstractElement):
             ever comes within half a shoe's length + 1.05 roller radii of its middle.
     """
 
+    role = "shoes"
+
     mid: Float[Array, "K 2"]
     normal: Float[Array, "K 2"]
     curvature: Float[Array, " K"]

@@ -45,6 +45,8 @@ class Tensioners(AbstractElement):
             a clockwise one does.
     """
 
+    role = "tensioners"
+
     pivot: Float[Array, "A 2"]
     layout_angle: Float[Array, " A"]
     angle0: Float[Array, " A"]

@@ -34,18 +34,15 @@ from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction import CoulombFriction
 from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.johnson import JohnsonCylinder
+from .._elements.anchors import Anchors
+from .._elements.gravity import Gravity
+from .._elements.joint_friction import JointFriction
+from .._elements.pairs import ClearanceJoints, LinkSprings, PairGroup
+from .._elements.rollers import RollerTeeth
+from .._elements.shoes import Shoes
+from .._elements.tensioners import Tensioners
 from .._materials import STEEL, Material, effective_modulus
-from .._scene import (
-    Anchors,
-    ClearanceJoints,
-    JointFriction,
-    LinkSprings,
-    PairGroup,
-    Scene,
-    Shoes,
-    Sprocket,
-    Tensioners,
-)
+from .._scene import Scene, Sprocket
 
 __all__ = [
     "assemble",
@@ -473,26 +470,24 @@ def assemble(
     (2,) [m/s²] (None: none); ``friction="default"``: :func:`default_tooth_friction`."""
     if isinstance(friction, str):
         friction = default_tooth_friction(bodies.bush_link is not None)
+    g = jnp.zeros(2) if gravity is None else jnp.asarray(gravity, dtype=float)
+    elements = (
+        *bodies.pairs, bodies.joint_friction, anchors, RollerTeeth(roller_contact, friction),
+        shoes, tensioners, Gravity(g),
+    )  # fmt: skip
     return Scene(
         mass=jnp.asarray(bodies.mass),
         inertia=jnp.asarray(bodies.inertia),
-        pairs=bodies.pairs,
         roller_body=jnp.asarray(bodies.roller_body),
         roller_offset=jnp.asarray(bodies.roller_offset),
-        roller_law=roller_contact,
-        friction=friction,
         sprockets=sprockets,
-        anchors=anchors,
-        joint_friction=bodies.joint_friction,
         impact_speed=jnp.asarray(impact_speed, dtype=float),
         q0=jnp.asarray(bodies.q0),
         v0=jnp.asarray(bodies.v0),
         link_weights=jnp.asarray(bodies.link_weights),
-        gravity=jnp.zeros(2) if gravity is None else jnp.asarray(gravity, dtype=float),
         horizon=jnp.asarray(horizon, dtype=float),
         tensile_strength=jnp.asarray(tensile_strength, dtype=float),
         fidelity=fidelity,
-        tensioners=tensioners,
-        shoes=shoes,
+        elements=elements,
         bush_link=None if bodies.bush_link is None else jnp.asarray(bodies.bush_link),
     )

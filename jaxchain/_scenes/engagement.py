@@ -10,10 +10,11 @@ import numpy as np
 
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
+from .._elements.anchors import Anchors
 from .._elements.cushion import CushionContacts, CushionRing
 from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._profiles.iso import ToothProfile
-from .._scene import Anchors, Scene, Sprocket
+from .._scene import Scene, Sprocket
 from .build import (
     assemble,
     chain_bodies,

@@ -23,9 +23,10 @@ from .. import _checks as checks
 from .._chain import ChainSpec
 from .._contact.flores import Flores
 from .._contact.friction import CoulombFriction
+from .._elements.shoes import Shoes
+from .._elements.tensioners import Tensioners
 from .._materials import STEEL, Material, effective_modulus
 from .._profiles.base import MAX_TEETH, MIN_TEETH
-from .._scene import Shoes, Tensioners
 
 __all__ = ["Tensioner", "Guide", "SHOE_FRICTION", "POLYAMIDE", "shoe_law"]
 

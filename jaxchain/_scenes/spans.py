@@ -14,6 +14,8 @@ import numpy as np
 from jax.typing import ArrayLike
 
 from .. import _checks as checks
+from .._elements.gravity import Gravity
+from .._elements.rollers import RollerTeeth
 from .._elements.spans import Spans, pitch_curve_coefficients, scaled_curve
 from .._kinematics import tangent_normal
 from .._loads import AbstractLoad
@@ -213,24 +215,17 @@ def spans_drive(a: DriveArgs, model: ChainModel) -> Scene:
     return Scene(
         mass=jnp.zeros(0),
         inertia=jnp.zeros(0),
-        pairs=(),
         roller_body=jnp.zeros(0, dtype=int),
         roller_offset=empty2,
-        roller_law=roller_law(chain, 0.7),
-        friction=None,
         sprockets=sprockets,
-        anchors=None,
-        joint_friction=None,
         impact_speed=jnp.asarray(1.0),
         q0=empty3,
         v0=empty3,
         link_weights=jnp.eye(n),
-        gravity=jnp.zeros(2),
         horizon=jnp.asarray(math.inf),
         tensile_strength=jnp.asarray(chain.tensile_strength, dtype=float),
         fidelity="spans",
-        tensioners=arms,
-        elements=(spans,),
+        elements=(RollerTeeth(roller_law(chain, 0.7), None), arms, Gravity(jnp.zeros(2)), spans),
     )
 
 

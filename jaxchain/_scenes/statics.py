@@ -28,6 +28,7 @@ that moves anything by a pitch or more is rejected.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import warnings
@@ -356,7 +357,7 @@ def _at_rest(scene: Scene) -> Scene:
     and the joints' oil films left out (a film carries no load at rest, and its squeeze
     damping would only slow the relaxation down)."""
     if any(g.lubricated for g in scene.pairs):
-        scene = eqx.tree_at(lambda sc: sc.pairs, scene, tuple(g.dry() for g in scene.pairs))
+        scene = dataclasses.replace(scene, pairs=tuple(g.dry() for g in scene.pairs))
     if scene.anchors is None:
         return scene
     return eqx.tree_at(lambda sc: sc.anchors.speed, scene, jnp.zeros_like(scene.anchors.speed))

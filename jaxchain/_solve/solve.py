@@ -22,7 +22,6 @@ from jaxtyping import Array
 
 from .._deps import errors_as_nan
 from .._dynamics import DriveState, forces, initial_state, outputs, rates
-from .._elements.rollers import prepare
 from .._numerics import is_concrete
 from .._observers.base import AbstractIntegralObserver, AbstractStepObserver, Health
 from .._scene import Scene
@@ -158,7 +157,7 @@ def solve(
     integrals = tuple(o for o in observers if isinstance(o, AbstractIntegralObserver))
     if len(steps) + len(integrals) != len(observers):
         raise TypeError(f"observers must be step or integral observers, got {observers!r}")
-    scene = prepare(scene)
+    scene = scene.prepared()
     y0 = initial_state(scene)
     i0 = tuple(_zeros_of(o, t0, y0, scene) for o in integrals)
     subs = [diffrax.SubSaveAt(t1=True)]
