@@ -1,14 +1,16 @@
 """jaxchain beside EXUDYN on one lumped drive at matched physics, one after the other.
 
-08B 18/36, 60 links, 300 rpm, 20 N·m, 200 N pretension, settled start, frictionless, contact
-undamped, links at ζ 0.05. EXUDYN (fast module, one thread, RK4 at its refined fixed step)
-gets jaxchain's masses, spin inertias, link springs and dampers, driven inertia, outline (as
-segments, their midpoints on it), start state and load; its driver is a 1e4 kg·m² body at
-the driver speed. EXUDYN's contact force is k_c × overlap area (∝ δ^1.5 in a seat), k_c set
-to Johnson's depth at the tight span's tension; jaxchain runs with its Johnson law and with
-the δ^1.5 law equal to EXUDYN's in a seat. Both over 0.1 s (the issue's reference: ~0.5 s).
+08B 18/36, 60 links, 300 rpm (``--rpm``), 20 N·m, 200 N pretension, settled start,
+frictionless, contact undamped, links at ζ 0.05. EXUDYN (fast module, one thread, RK4 at
+its refined fixed step) gets jaxchain's masses, spin inertias, link springs and dampers,
+driven inertia, outline (as segments, their midpoints on it), start state and load; its
+driver is a 1e4 kg·m² body at the driver speed. EXUDYN's contact force is k_c × overlap
+area (∝ δ^1.5 in a seat), k_c set to Johnson's depth at the tight span's tension; jaxchain
+runs with its Johnson law and with the δ^1.5 law equal to EXUDYN's in a seat. Both over
+0.1 s.
 
     python -m benchmarks.peers            # ~13 min on 2 shared cores (load 6-8)
+    python -m benchmarks.peers --rpm 600  # the second speed: results/peers_600rpm.json
 """
 
 import math
@@ -145,7 +147,8 @@ def span_tensions(sc, run) -> np.ndarray:
 def metrics(sc, run) -> dict:
     """Over the last whole mesh periods; driven torque load + I2·Δω2/Δt (both codes)."""
     (z1, z2), (r1, r2) = DRIVE["teeth"], R
-    load, f_mesh, t1, w = DRIVE["load_torque"], RPM / 60 * z1, run["ts"][-1], run["omega"]
+    rpm = float(sc.sprockets[0].speed) * 30 / math.pi
+    load, f_mesh, t1, w = DRIVE["load_torque"], rpm / 60 * z1, run["ts"][-1], run["omega"]
     ta = t1 - (n := int(t1 * f_mesh + 1e-6)) / f_mesh
     grid = np.linspace(ta, t1, 64 * n, endpoint=False)
     mean = lambda y: float(np.mean(np.interp(grid, run["ts"], y)))
@@ -247,17 +250,19 @@ def main(argv=None) -> dict:
     ap.add_argument("--tol", type=float, default=0.02, help="EXUDYN's step: mesh line within "
                     "this of its finest, tight − slack a tenth")  # fmt: skip
     ap.add_argument("--repeats", type=int, default=2, help="timed runs of each code (fastest kept)")
+    ap.add_argument("--rpm", type=float, default=RPM, help="driver speed (default %(default)s)")
     args = parse(ap, argv)
-    t1, t_ref = (0.012, 0.012) if args.quick else (args.t1, 120 / RPM / DRIVE["teeth"][0] + 1e-9)
+    rpm, stem = args.rpm, "peers" if args.rpm == RPM else f"peers_{args.rpm:g}rpm"
+    t1, t_ref = (0.012, 0.012) if args.quick else (args.t1, 120 / rpm / DRIVE["teeth"][0] + 1e-9)
     start, res = time.perf_counter(), header("peers", argv)
     res["machine"]["versions"]["exudyn"] = __import__("exudyn").__version__
     (z1, z2), (r1, r2), load = DRIVE["teeth"], R, DRIVE["load_torque"]
-    sc = jc.scenes.drive(**DRIVE, speed_rpm=RPM, model=MODEL)
+    sc = jc.scenes.drive(**DRIVE, speed_rpm=rpm, model=MODEL)
     k_c, law, cal = matched_law(sc)
-    scm = jc.scenes.drive(**DRIVE, speed_rpm=RPM, model=MODEL.replace(roller_contact=law))
+    scm = jc.scenes.drive(**DRIVE, speed_rpm=rpm, model=MODEL.replace(roller_contact=law))
     el, jl, spr = sc.pairs[0].element, sc.roller_law, sc.sprockets
     res["horizon_s"], res["parameters"] = t1, {  # every parameter both codes get, from the scene
-        "drive": DRIVE | {"speed_rpm": RPM, "restitution": 1.0, "link_damping_ratio": 0.05},
+        "drive": DRIVE | {"speed_rpm": rpm, "restitution": 1.0, "link_damping_ratio": 0.05},
         "source": "jc.scenes.drive and jc.initial_state (settled start): sc.mass, sc.inertia, "
         "sc.pairs[0].element, the Sprocket fields, profile.sprocket_outline",
         "roller_mass_kg": float(sc.mass[0]), "roller_spin_inertia_kgm2": float(sc.inertia[0]),
@@ -269,7 +274,7 @@ def main(argv=None) -> dict:
         "exudyn_segment_m": args.segment, "exudyn_driver_inertia_kgm2": DRIVER_INERTIA,
         "not_matched": NOT_MATCHED}  # fmt: skip
     res["closed_form"] = {"speed_ratio": z1 / z2, "driven_torque_Nm": load,
-                          "driven_speed_rad_s": RPM * math.pi / 30 * z1 / z2,
+                          "driven_speed_rad_s": rpm * math.pi / 30 * z1 / z2,
                           "driver_torque_Nm": -load * r1 / r2,
                           "tight_minus_slack_N": load / r2}  # fmt: skip
     res["refinement"] = refine(sc, scm, k_c, t_ref, args.segment, args.tol, args.quick)
@@ -293,7 +298,7 @@ def main(argv=None) -> dict:
     res["johnson_vs_matched_law"] = {k: j[k] / m[k] - 1 for k in keys}
     res["ratio"] = {f"{k[:-2]}_exudyn_over_{n}": runs["exudyn"][k] / runs[n][k]
                     for k in ("wall_s", "cpu_s") for n in list(runs)[:2]}  # fmt: skip
-    return finish(res, args.out, "peers", chart, start)
+    return finish(res, args.out, stem, chart, start)
 
 
 if __name__ == "__main__":

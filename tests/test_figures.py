@@ -272,3 +272,26 @@ def test_span_model():
     readme = row(README, "spans")
     check(readme, "{}–{}× cheaper", min(less), max(less))
     assert apart(1000, keys[0]) < float(quoted(readme, "2nd order within {} % of it")[0])
+
+
+def test_peers():
+    """EXUDYN's wall and CPU time over jaxchain's (matched law) at 300 and 600 rpm, and
+    the largest closed-form error of either code at either speed, in README's table and
+    docs/figures.md."""
+    runs = [result(f) for f in ("peers.json", "peers_600rpm.json")]
+    wall = [r["ratio"]["wall_exudyn_over_jaxchain_matched"] for r in runs]
+    cpu = [r["ratio"]["cpu_exudyn_over_jaxchain_matched"] for r in runs]
+    keys = ("speed_ratio_error", "driven_torque_error", "tension_error")
+    worst = max(
+        100 * abs(r["runs"][code]["metrics"][k])
+        for r in runs
+        for code in ("jaxchain_matched", "exudyn")
+        for k in keys
+    )
+    readme = row(README, "peers")
+    check(readme, "both within {} % of the closed forms", worst)
+    check(readme, "EXUDYN takes {}× jaxchain's wall time at 300 rpm and {}× at 600 rpm", *wall)
+    check(readme, "(CPU time {}× and {}×)", *cpu)
+    fig = row(FIGURES, "peers")
+    check(fig, "both within {} % of the closed forms", worst)
+    check(fig, "EXUDYN takes {}× / {}× jaxchain's wall time and {}× / {}× its CPU", *wall, *cpu)
