@@ -210,10 +210,10 @@ def restarted(scene: jc.Scene, t: float, q, v, angle, bristle) -> jc.Scene:
         pairs[i] = eqx.tree_at(lambda g: g.element.friction, pairs[i], law)
     an = scene.anchors
     return eqx.tree_at(
-        lambda s: (s.pairs, s.q0, s.v0, s.sprockets[0].angle0, s.anchors.origin, s.horizon),
-        scene,
+        lambda s: (s.q0, s.v0, s.sprockets[0].angle0, s.anchors.origin, s.horizon),
+        dataclasses.replace(scene, pairs=tuple(pairs)),
         (
-            tuple(pairs), jnp.asarray(q), jnp.asarray(v), jnp.asarray(angle),
+            jnp.asarray(q), jnp.asarray(v), jnp.asarray(angle),
             an.origin + (an.speed * t)[:, None] * an.direction, scene.horizon - t,
         ),
     )  # fmt: skip
