@@ -92,6 +92,11 @@ def test_tensioner_solve_outputs(tensioned, short_solve):
     np.testing.assert_allclose(sol.tensioner_angle[0], tensioned.tensioners.angle0)
     assert np.all(np.isfinite(np.asarray(sol.tensioner_force)))
     assert 50.0 < float(sol.tensioner_force[0, 0]) < 120.0
+    # every element's outputs also under their own names, built-in ones included (one
+    # mechanism for the scene's parts and the user's elements); the chain's are not there
+    for name in ("tensioner_angle", "tensioner_force", "tensioner_torque", "guide_force"):
+        assert sol.element_outputs[name] is getattr(sol, name)
+    assert "link_tension" not in sol.element_outputs
 
 
 def test_snapshot_draws_shoes(tensioned, short_solve):

@@ -59,8 +59,11 @@ class Solution(eqx.Module):
         span_tension: (T, J) mean tension of each free span of a closed drive [N], span j
             from sprocket j to j + 1 (every fidelity; the lumped and clearance chains: the
             mean over the links in the span); None for a strand.
-        element_outputs: the saved outputs of force elements added to the scene
-            (:meth:`~jaxchain.Scene.add_elements`), by name, each (T, ...).
+        element_outputs: every force element's saved outputs, by name, each (T, ...):
+            the built-in elements' (``roller_shoe_force``, ``tensioner_angle``,
+            ``joint_friction_power``, ``tooth_friction_power``, ...; those with a field
+            above are that field too) and those of the elements added to the scene
+            (:meth:`~jaxchain.Scene.add_elements`).
 
     An ensemble's solution also has (None for one member's):
         steps: (M,) steps each member took (accepted + rejected): the work it needed.
@@ -183,12 +186,22 @@ _ENSEMBLE_ONLY = (
 )
 
 
+#: the saved outputs of the chain and the sprockets themselves; every other saved output
+#: is a force element's (``AbstractElement.outputs``)
+CHAIN_OUTPUTS = (
+    "roller_position", "roller_velocity", "roller_sprocket_force", "link_tension",
+    "sprocket_speed", "sprocket_angle", "sprocket_torque", "span_tension",
+)  # fmt: skip
+
+
 def split_saved(saved: dict) -> dict:
-    """The solve's saved outputs as :class:`Solution` keyword arguments: its own fields,
-    and the rest (added elements' outputs) in ``element_outputs``."""
+    """The solve's saved outputs as :class:`Solution` keyword arguments: the chain's and
+    the sprockets' in their fields; every force element's, built-in or added, by its
+    name in ``element_outputs``, those with a field of their own (a shoe's, a
+    tensioner's) in that field too."""
     own = {f.name for f in dataclasses.fields(Solution)}
     out = {k: v for k, v in saved.items() if k in own}
-    out["element_outputs"] = {k: v for k, v in saved.items() if k not in own}
+    out["element_outputs"] = {k: v for k, v in saved.items() if k not in CHAIN_OUTPUTS}
     return out
 
 
