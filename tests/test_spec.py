@@ -149,7 +149,13 @@ def test_a_strand_spec_is_the_engagement_scene():
             lambda: S.StrandSpec(sprocket=S.SprocketSpec(18, load=None, inertia=1e-3)),
             "does not use its sprocket's inertia.*DriveSpec",
         ),
-        (lambda: S.DriveSpec.of(teeth=(18, 36, 27), load_torque=(1.0,)), "2 values"),
+        (
+            lambda: S.DriveSpec.of(
+                teeth=(18, 36, 27), centres=((0, 0), (0.3, 0), (0.1, 0.2)), load_torque=(1.0,)
+            ),
+            r"load_torque must be one value .* \(2 for 3 sprockets\)",
+        ),
+        (lambda: S.DriveSpec.of(teeth=(18, 36, 27)), "give their axes in centres"),
     ],
 )
 def test_a_bad_spec_names_the_fix(make, message):

@@ -457,7 +457,7 @@ BAD = [
         "dspec-of-teeth-str",
         lambda: DS.of("08B", "ab"),
         TypeError,
-        "teeth must be a sequence of tooth counts",
+        "teeth must be a sequence of 2 tooth counts",
     ),
     (
         "dspec-of-teeth-float",
@@ -467,15 +467,15 @@ BAD = [
     ),
     (
         "dspec-of-outside-str",
-        lambda: DS.of("08B", (18, 36), outside="a"),
+        lambda: DS.of("08B", (18, 36), centres=((0, 0), (0.3, 0)), outside="a"),
         TypeError,
         "outside must be a sequence",
     ),
     (
         "dspec-of-outside-0",
-        lambda: DS.of("08B", (18, 36), outside=(0,)),
+        lambda: DS.of("08B", (18, 36), centres=((0, 0), (0.3, 0)), outside=(0,)),
         ValueError,
-        r"outside\[0\] must be an integer in \[1, 1\]",
+        r"outside must hold indices of driven sprockets in \[1, 1\]",
     ),
     (
         "dspec-speed-build",

@@ -1,19 +1,18 @@
-"""``drive``: a closed chain over a driver and one driven sprocket, or over several
-sprockets (:mod:`.loop_drive`)."""
+"""The closed chain drive a :class:`~jaxchain.scenes.DriveSpec` describes (what
+:func:`~jaxchain.scenes.drive` builds through its spec): over a driver and one driven
+sprocket, or over several sprockets (:mod:`.loop_drive`)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Literal
 
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec, as_chain
 from .._elements.cushion import CushionContacts, as_cushions
 from .._loads import AbstractLoad
-from .._profiles.base import MAX_TEETH, AbstractProfile
+from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
 from .build import assemble, chain_bodies, roller_law, rollers_on_bush_of
 from .common import (
@@ -29,124 +28,17 @@ from .common import (
 )
 from .layout import closed_drive_layout, transport_velocity
 from .loop_drive import loop_drive
-from .model import _DEFAULTS, ChainModel, DriveArgs, _is_default, model_of, rad_per_s
+from .model import _DEFAULTS, ChainModel, DriveArgs, _is_default
 from .shoes import Guide, Tensioner
 from .spans import spans_drive
 from .statics import equilibrate
 
-__all__ = ["drive"]
-
-
-def drive(
-    chain: ChainSpec | str = "08B",
-    teeth: Sequence[int] = (18, 36),
-    *,
-    centres: Sequence[tuple[float, float]] | None = None,
-    outside: Sequence[int] = (),
-    take_up_sprocket: int | None = None,
-    centre_distance: float | None = None,
-    n_links: int | None = None,
-    speed_rpm: float = 1000.0,
-    load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
-    pretension: float = 200.0,
-    fidelity: Literal["lumped", "clearance", "spans"] = "lumped",
-    profiles: Sequence[AbstractProfile] | None = None,
-    tensioner: Tensioner | None = None,
-    guides: Sequence[Guide] = (),
-    model: ChainModel | None = None,
-    **older,
-) -> Scene:
-    """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
-    ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``; or,
-    with ``centres``, over any number of sprockets (below).
-
-    The initial configuration is consistent: rollers seated at the pitch points of the
-    wrap arcs, straight spans of whole pitches, the centre distance C adjusted (by less
-    than a pitch) so the loop closes with an even link count (give ``centre_distance`` or
-    ``n_links``; default 40 pitches), the chain laid out stretched by ``pretension``, and
-    velocities of rigid transport at the driver speed; then (``settle``, the default) the
-    static equilibrium of that layout with the driver held: rollers in their seats, joints
-    closed, the driven axis moved by a take-up of 2·pretension and the full load carried.
-    What remains is a small start-up transient: the polygonal mismatch of the spans' end
-    velocities. From the raw layout (``settle=False``) the seat and joint clearances are
-    open and the load is ramped in smoothly over ``load_ramp`` (default: one driver
-    revolution) so the tight span stretches without a shock.
-
-    Several sprockets: give ``teeth=(z1, …, zN)`` and their axes ``centres=((x1, y1), …)``
-    [m]. The first (index 0) drives; the chain passes the sprockets in the order given as one
-    counter-clockwise loop, wrapping counter-clockwise the ones inside it and clockwise
-    the ``outside`` ones (idlers on the chain's back, turning clockwise). A driven
-    sprocket with zero load torque is an idler. The layout closes exactly
-    (:func:`~jaxchain.scenes.loop_layout`): the take-up sprocket moves along the outward
-    bisector of its spans by what closes the loop with ``n_links`` (default: the even
-    count nearest the belt length), and while the scene settles it is pushed along that
-    bisector so that its two spans carry 2·pretension between them; the other axes stay
-    where given. Every sprocket k starts at ±ω1·z1/zk.
-
-    A ``tensioner`` (:class:`~jaxchain.scenes.Tensioner`, a sprung arm with a shoe)
-    presses on one span from the chain's back and sets the tension: its span carries
-    ``pretension`` at rest, and no sprocket moves (no take-up). The layout wraps the chain
-    round the shoe, pushed in by ``Tensioner.deflection``; the loop closes by moving the
-    shoe along the bisector of its spans, and the settled start turns the arm until its
-    spring balances the chain. ``guides`` (:class:`~jaxchain.scenes.Guide`) are fixed
-    shoes along spans. Both work with two sprockets and no ``centres`` too (the driven
-    axis at (``centre_distance``, 0), default 40 pitches).
-
-    Args:
-        chain: an ISO 606 designation or a :class:`ChainSpec`.
-        teeth: tooth counts, driver first: (driver, driven), or N of them with ``centres``.
-        centres: (N, 2) axis positions [m] in the order the chain passes them (None: the
-            two-sprocket drive on the x axis).
-        outside: indices in [1, N − 1] of sprockets outside the loop (needs ``centres``).
-        take_up_sprocket: the sprocket that closes the loop and takes up the pretension,
-            in [1, N − 1] (default N − 1; needs ``centres``).
-        centre_distance: two-sprocket drive: C [m] (adjusted by less than a pitch to close).
-        n_links: even number of links.
-        speed_rpm: driver speed [rpm], > 0; every scene built with the defaults runs with
-            ``simulate``'s defaults from 100 to 3000 rpm, in both fidelities.
-        load_torque: the torque resisting each driven sprocket's rotation: a number [N·m],
-            ≥ 0, or a load (``jc.loads.Harmonic(...)``, any ``jc.loads.AbstractLoad``), for
-            every driven sprocket, or one per driven sprocket. The statics hold a load at its
-            value at the start; a number is ramped in over ``load_ramp``.
-        pretension: chain tension at rest [N], ≥ 0.
-        fidelity: "lumped" (rollers + elastic links), "clearance" (rigid links,
-            pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
-            spans as axial springs between the sprockets' pitch curves, for the drive's
-            tensions and speeds over many revolutions; fixed axes, a tensioner's shoe as a
-            frictionless circle the chain slides over, guides checked but without effect
-            (they lie along the straight spans, which do not move across), no gravity; see
-            :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
-        profiles: one tooth profile per sprocket (default ISO 606 of ``model.form``).
-        tensioner: a :class:`~jaxchain.scenes.Tensioner` on one span, or None.
-        guides: fixed :class:`~jaxchain.scenes.Guide` shoes, each on a span (not the
-            tensioner's).
-        model: how the chain and its contacts are modelled, a
-            :class:`~jaxchain.scenes.ChainModel` (form, wear, restitution, friction, joint
-            friction, oil, contact laws, damping, gravity, settled start, load ramp, cushion
-            rings); default ``ChainModel()``.
-
-    Older keywords: each field of :class:`~jaxchain.scenes.ChainModel` is still taken as
-    a keyword (``restitution=0.5`` for ``model=ChainModel(restitution=0.5)``), with a
-    ``DeprecationWarning`` naming that spelling; and
-    ``driven_inertia`` [kg·m²], of every driven sprocket or one per driven sprocket
-    (default a steel disc of the pitch diameter; ``SprocketSpec.inertia`` in a
-    :class:`~jaxchain.scenes.DriveSpec`).
-    """
-    driven_inertia = older.pop("driven_inertia", None)
-    m = model_of("drive", model, older)
-    a = DriveArgs(
-        chain=as_chain(chain), teeth=teeth, centres=centres, outside=outside,
-        take_up_sprocket=take_up_sprocket, centre_distance=centre_distance, n_links=n_links,
-        omega=rad_per_s(speed_rpm), load_torque=load_torque, pretension=pretension,
-        fidelity=fidelity, profiles=profiles, driven_inertia=driven_inertia,
-        tensioner=tensioner, guides=guides,
-    )  # fmt: skip
-    return build_drive(a, m)
+__all__ = ["build_drive"]
 
 
 def build_drive(a: DriveArgs, m: ChainModel) -> Scene:
-    """The drive ``a`` modelled by ``m`` (what :func:`drive` and
-    :meth:`~jaxchain.scenes.DriveSpec.build` build)."""
+    """The drive ``a`` modelled by ``m`` (what :meth:`~jaxchain.scenes.DriveSpec.build`
+    builds, and so :func:`~jaxchain.scenes.drive`)."""
     m.check_fidelity(a.fidelity)
     if a.fidelity == "spans":  # what only a chain of links and rollers uses: refused
         given = [

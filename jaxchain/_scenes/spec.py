@@ -23,10 +23,11 @@ from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Scene
-from .common import disc_inertia
-from .drive import drive
+from .common import disc_inertia, per_driven
+from .drive import build_drive
 from .engagement import engagement
-from .model import MODEL_FIELDS, ChainModel, ModelFields
+from .loop import as_centres, as_outside
+from .model import MODEL_FIELDS, ChainModel, DriveArgs, ModelFields, model_of, rad_per_s
 from .shoes import Guide, Tensioner
 
 __all__ = ["SprocketSpec", "DriveSpec", "StrandSpec"]
@@ -259,9 +260,18 @@ class DriveSpec(_ChainModel):
         return args
 
     def build(self) -> Scene:
-        """The scene (:func:`~jaxchain.scenes.drive` of :meth:`arguments`), with
-        ``elements`` added."""
-        return self._with_elements(drive(**self.arguments()))
+        """The scene this spec describes (what :func:`~jaxchain.scenes.drive` of
+        :meth:`arguments` gives), with ``elements`` added."""
+        args = self.arguments()
+        model = args.pop("model")
+        a = DriveArgs(
+            chain=as_chain(args.pop("chain")), omega=rad_per_s(args.pop("speed_rpm")),
+            teeth=args.pop("teeth"), centres=args.pop("centres", None),
+            outside=args.pop("outside", ()), take_up_sprocket=args.pop("take_up_sprocket", None),
+            profiles=args.pop("profiles", None), driven_inertia=args.pop("driven_inertia", None),
+            **args,
+        )  # fmt: skip
+        return self._with_elements(build_drive(a, model))
 
     @classmethod
     def of(
@@ -281,35 +291,55 @@ class DriveSpec(_ChainModel):
         per-sprocket ones (``teeth``, ``centres``, ``outside``, ``load_torque``,
         ``profiles``, ``driven_inertia``, ``cushion``) gathered into
         :class:`SprocketSpec` s."""
-        if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
-            raise TypeError(
-                f"teeth must be a sequence of tooth counts, driver first, got {teeth!r}"
-            )
+        if centres is None and rest.get("tensioner") is None and not rest.get("guides"):
+            placed = {"outside": np.size(outside) > 0}
+            placed["take_up_sprocket"] = rest.get("take_up_sprocket") is not None
+            for name, given in placed.items():
+                if given:
+                    raise ValueError(
+                        f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
+                    )
+        if centres is None:  # two sprockets on the x axis
+            if isinstance(teeth, Sequence | np.ndarray) and not isinstance(teeth, (str, bytes)):
+                if len(teeth) != 2:
+                    raise ValueError(
+                        f"teeth must hold 2 tooth counts (driver, driven), got {len(teeth)}: "
+                        f"{teeth!r}; for a drive over more sprockets give their axes in "
+                        "centres=((x1, y1), ...)"
+                    )
+            teeth = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
+        elif isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
+            raise TypeError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
         teeth = tuple(
             checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth)
         )
         n = len(teeth)
-
-        def each(name, value, count):
-            if isinstance(value, Sequence | np.ndarray) and not isinstance(value, (str, bytes)):
-                if len(value) != count:
-                    raise ValueError(f"{name} must hold {count} values, got {len(value)}")
-                return tuple(value)
-            return (value,) * count
-
-        loads = (None, *each("load_torque", load_torque, n - 1))
-        inertias = (None, *each("driven_inertia", driven_inertia, n - 1))
-        shapes = each("profiles", profiles, n) if profiles is not None else (None,) * n
-        axes = tuple(centres) if centres is not None else (None,) * n
-        if len(axes) != n:
-            raise ValueError(f"centres must hold {n} axes (one per sprocket), got {len(axes)}")
+        if n < 2:
+            raise ValueError(f"teeth must hold at least 2 tooth counts (driver first), got {n}")
+        # each per-sprocket argument checked in the words of drive()'s keywords
+        loads = [None]
+        for label, v in per_driven("load_torque", load_torque, n - 1):
+            if not isinstance(v, AbstractLoad):
+                v = checks.real(label, v, lo=0.0, unit="N·m (or a jc.loads load)")
+            loads.append(v)
+        inertias = [None]
+        if driven_inertia is not None:
+            inertias += [
+                checks.real(label, v, lo=0.0, lo_open=True, unit="kg·m²")
+                for label, v in per_driven("driven_inertia", driven_inertia, n - 1)
+            ]
+        else:
+            inertias += [None] * (n - 1)
+        what = "tooth profiles (driver, driven)" if n == 2 else "tooth profiles, one per sprocket"
+        shapes = (None,) * n if profiles is None else checks.pair("profiles", profiles, n, what)
+        axes = (None,) * n if centres is None else tuple(map(tuple, as_centres(centres, n)))
         if isinstance(outside, (int, np.integer)) and not isinstance(outside, bool):
             outside = (outside,)
         if isinstance(outside, (str, bytes)) or not isinstance(outside, Sequence | np.ndarray):
             raise TypeError(
                 f"outside must be a sequence of sprocket indices in [1, {n - 1}], got {outside!r}"
             )
-        out = {checks.integer(f"outside[{j}]", k, lo=1, hi=n - 1) for j, k in enumerate(outside)}
+        out = set(as_outside(outside, n))
         rings = as_cushions(cushion, n)
         sprockets = tuple(
             SprocketSpec(
@@ -327,6 +357,8 @@ class DriveSpec(_ChainModel):
         )
         if "elements" in rest:
             rest["elements"] = tuple(rest["elements"])
+        if isinstance(rest.get("guides"), Guide):  # one guide, as drive() takes it
+            rest["guides"] = (rest["guides"],)
         return cls(chain=chain, sprockets=sprockets, **rest)
 
 
@@ -407,3 +439,115 @@ class StrandSpec(_ChainModel):
         """The scene (:func:`~jaxchain.scenes.engagement` of :meth:`arguments`), with
         ``elements`` added."""
         return self._with_elements(engagement(**self.arguments()))
+
+
+def drive(
+    chain: ChainSpec | str = "08B",
+    teeth: Sequence[int] = (18, 36),
+    *,
+    centres: Sequence[tuple[float, float]] | None = None,
+    outside: Sequence[int] = (),
+    take_up_sprocket: int | None = None,
+    centre_distance: float | None = None,
+    n_links: int | None = None,
+    speed_rpm: float = 1000.0,
+    load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
+    pretension: float = 200.0,
+    fidelity: Literal["lumped", "clearance", "spans"] = "lumped",
+    profiles: Sequence[AbstractProfile] | None = None,
+    tensioner: Tensioner | None = None,
+    guides: Sequence[Guide] = (),
+    model: ChainModel | None = None,
+    **older,
+) -> Scene:
+    """A closed roller chain over a driver (axis at the origin, turning counter-clockwise at
+    ``speed_rpm``) and a driven sprocket (axis at (C, 0)) loaded by ``load_torque``; or,
+    with ``centres``, over any number of sprockets (below).
+
+    The initial configuration is consistent: rollers seated at the pitch points of the
+    wrap arcs, straight spans of whole pitches, the centre distance C adjusted (by less
+    than a pitch) so the loop closes with an even link count (give ``centre_distance`` or
+    ``n_links``; default 40 pitches), the chain laid out stretched by ``pretension``, and
+    velocities of rigid transport at the driver speed; then (``settle``, the default) the
+    static equilibrium of that layout with the driver held: rollers in their seats, joints
+    closed, the driven axis moved by a take-up of 2·pretension and the full load carried.
+    What remains is a small start-up transient: the polygonal mismatch of the spans' end
+    velocities. From the raw layout (``settle=False``) the seat and joint clearances are
+    open and the load is ramped in smoothly over ``load_ramp`` (default: one driver
+    revolution) so the tight span stretches without a shock.
+
+    Several sprockets: give ``teeth=(z1, …, zN)`` and their axes ``centres=((x1, y1), …)``
+    [m]. The first (index 0) drives; the chain passes the sprockets in the order given as one
+    counter-clockwise loop, wrapping counter-clockwise the ones inside it and clockwise
+    the ``outside`` ones (idlers on the chain's back, turning clockwise). A driven
+    sprocket with zero load torque is an idler. The layout closes exactly
+    (:func:`~jaxchain.scenes.loop_layout`): the take-up sprocket moves along the outward
+    bisector of its spans by what closes the loop with ``n_links`` (default: the even
+    count nearest the belt length), and while the scene settles it is pushed along that
+    bisector so that its two spans carry 2·pretension between them; the other axes stay
+    where given. Every sprocket k starts at ±ω1·z1/zk.
+
+    A ``tensioner`` (:class:`~jaxchain.scenes.Tensioner`, a sprung arm with a shoe)
+    presses on one span from the chain's back and sets the tension: its span carries
+    ``pretension`` at rest, and no sprocket moves (no take-up). The layout wraps the chain
+    round the shoe, pushed in by ``Tensioner.deflection``; the loop closes by moving the
+    shoe along the bisector of its spans, and the settled start turns the arm until its
+    spring balances the chain. ``guides`` (:class:`~jaxchain.scenes.Guide`) are fixed
+    shoes along spans. Both work with two sprockets and no ``centres`` too (the driven
+    axis at (``centre_distance``, 0), default 40 pitches).
+
+    Args:
+        chain: an ISO 606 designation or a :class:`ChainSpec`.
+        teeth: tooth counts, driver first: (driver, driven), or N of them with ``centres``.
+        centres: (N, 2) axis positions [m] in the order the chain passes them (None: the
+            two-sprocket drive on the x axis).
+        outside: indices in [1, N − 1] of sprockets outside the loop (needs ``centres``).
+        take_up_sprocket: the sprocket that closes the loop and takes up the pretension,
+            in [1, N − 1] (default N − 1; needs ``centres``).
+        centre_distance: two-sprocket drive: C [m] (adjusted by less than a pitch to close).
+        n_links: even number of links.
+        speed_rpm: driver speed [rpm], > 0; every scene built with the defaults runs with
+            ``simulate``'s defaults from 100 to 3000 rpm, in both fidelities.
+        load_torque: the torque resisting each driven sprocket's rotation: a number [N·m],
+            ≥ 0, or a load (``jc.loads.Harmonic(...)``, any ``jc.loads.AbstractLoad``), for
+            every driven sprocket, or one per driven sprocket. The statics hold a load at its
+            value at the start; a number is ramped in over ``load_ramp``.
+        pretension: chain tension at rest [N], ≥ 0.
+        fidelity: "lumped" (rollers + elastic links), "clearance" (rigid links,
+            pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
+            spans as axial springs between the sprockets' pitch curves, for the drive's
+            tensions and speeds over many revolutions; fixed axes, a tensioner's shoe as a
+            frictionless circle the chain slides over, guides checked but without effect
+            (they lie along the straight spans, which do not move across), no gravity; see
+            :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
+        profiles: one tooth profile per sprocket (default ISO 606 of ``model.form``).
+        tensioner: a :class:`~jaxchain.scenes.Tensioner` on one span, or None.
+        guides: fixed :class:`~jaxchain.scenes.Guide` shoes, each on a span (not the
+            tensioner's).
+        model: how the chain and its contacts are modelled, a
+            :class:`~jaxchain.scenes.ChainModel` (form, wear, restitution, friction, joint
+            friction, oil, contact laws, damping, gravity, settled start, load ramp, cushion
+            rings); default ``ChainModel()``.
+
+    The drive is built through its spec, ``DriveSpec.of(...)`` of these arguments
+    (:class:`~jaxchain.scenes.DriveSpec`), whose :meth:`~jaxchain.scenes.DriveSpec.build`
+    gives the scene.
+
+    Older keywords: each field of :class:`~jaxchain.scenes.ChainModel` is still taken as
+    a keyword (``restitution=0.5`` for ``model=ChainModel(restitution=0.5)``), with a
+    ``DeprecationWarning`` naming that spelling; and
+    ``driven_inertia`` [kg·m²], of every driven sprocket or one per driven sprocket
+    (default a steel disc of the pitch diameter; ``SprocketSpec.inertia`` in a
+    :class:`~jaxchain.scenes.DriveSpec`).
+    """
+    driven_inertia = older.pop("driven_inertia", None)
+    m = model_of("drive", model, older)
+    flat = {name: getattr(m, name) for name in MODEL_FIELDS if name != "cushion"}
+    spec = DriveSpec.of(
+        chain, teeth, centres=centres, outside=outside, load_torque=load_torque,
+        profiles=profiles, driven_inertia=driven_inertia, cushion=m.cushion,
+        take_up_sprocket=take_up_sprocket, centre_distance=centre_distance, n_links=n_links,
+        speed_rpm=speed_rpm, pretension=pretension, fidelity=fidelity, tensioner=tensioner,
+        guides=guides, **flat,
+    )  # fmt: skip
+    return spec.build()
