@@ -20,7 +20,6 @@ from ._scenes.build import (
     link_stiffness as link_stiffness,
     roller_law as roller_law,
 )
-from ._scenes.engagement import engagement as engagement
 from ._scenes.layout import (
     LoopLayout as LoopLayout,
     closed_drive_layout as closed_drive_layout,
@@ -42,6 +41,7 @@ from ._scenes.spec import (
     SprocketSpec as SprocketSpec,
     StrandSpec as StrandSpec,
     drive as drive,
+    engagement as engagement,
 )
 from ._scenes.statics import (
     equilibrate as equilibrate,

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from typing import Literal
 
 import jax.numpy as jnp
 import numpy as np
@@ -32,54 +31,29 @@ from .common import (
     worn,
 )
 from .layout import strand_layout
-from .model import ChainModel, model_of, rad_per_s
+from .model import ChainModel, rad_per_s
 from .statics import equilibrate
 
-__all__ = ["engagement"]
+__all__ = ["build_engagement"]
 
 
-def engagement(
-    chain: ChainSpec | str = "08B",
-    teeth: int = 18,
+def build_engagement(
+    chain: ChainSpec | str,
+    teeth: int,
     *,
-    speed_rpm: float = 1000.0,
-    tension: float = 1000.0,
-    slack_tension: float = 100.0,
-    wrap: int | None = None,
-    n_entry: int = 8,
-    n_exit: int = 4,
-    fidelity: Literal["lumped", "clearance"] = "lumped",
-    profile: AbstractProfile | None = None,
-    span_stiffness: float | None = None,
-    model: ChainModel | None = None,
-    **older,
+    speed_rpm: float,
+    tension: float,
+    slack_tension: float,
+    wrap: int | None,
+    n_entry: int,
+    n_exit: int,
+    fidelity: str,
+    profile: AbstractProfile | None,
+    span_stiffness: float | None,
+    m: ChainModel,
 ) -> Scene:
-    """The meshing-impact scene used for design: a driver sprocket turning counter-clockwise
-    at ``speed_rpm`` draws an open chain strand in from a tight entry span (held at
-    ``tension`` far away) and lets it out into a slack exit span (``slack_tension``).
-
-    ``wrap`` rollers start seated (default z/2), ``n_entry`` rollers on the entry span mesh
-    one after the other, one per tooth period 2π/(zω): the scene's horizon
-    (``Scene.horizon``) is ``n_entry`` tooth periods, and a longer solve is refused. Each
-    free span end runs on a guide moving at that span's mean
-    speed (the polygon's mean speed z·p·ω/2π with the pitch stretched by the span's
-    tension, so the span's tension does not drift), pulled by its tension through a soft
-    spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
-    With ``settle`` (default) the strand starts from its static equilibrium on the held
-    sprocket (:func:`~jaxchain.scenes.equilibrate`); False starts from the layout.
-
-    ``model`` (a :class:`~jaxchain.scenes.ChainModel`, default ``ChainModel()``) sets how
-    the chain and its contacts are modelled, as in :func:`~jaxchain.scenes.drive`; its
-    fields are still taken as keywords, with a ``DeprecationWarning``. Its ``elongation``
-    is the chain's wear: a worn chain rides higher in the gaps, the more so the further a
-    roller is along the wrap.
-    Its ``cushion`` is one :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>`
-    on the sprocket (or None); its link plates press on it, in the settled start too (08B
-    on 18 teeth: seated plate edges at ≈ 30.1 mm from the axis); a drive's ``load_ramp``
-    and ``shoe_contact`` are not used. Other arguments as in
-    :func:`~jaxchain.scenes.drive`.
-    """
-    m = model_of("engagement", model, older)
+    """The strand :func:`~jaxchain.scenes.engagement` describes, modelled by ``m`` (what
+    :meth:`~jaxchain.scenes.StrandSpec.build` builds)."""
     omega = rad_per_s(speed_rpm)
     chain = as_chain(chain)
     gravity = as_gravity(m.gravity)

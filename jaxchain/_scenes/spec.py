@@ -25,7 +25,7 @@ from .._profiles.iso import ToothProfile
 from .._scene import Scene
 from .common import disc_inertia, per_driven
 from .drive import build_drive
-from .engagement import engagement
+from .engagement import build_engagement
 from .loop import as_centres, as_outside
 from .model import MODEL_FIELDS, ChainModel, DriveArgs, ModelFields, model_of, rad_per_s
 from .shoes import Guide, Tensioner
@@ -436,9 +436,13 @@ class StrandSpec(_ChainModel):
         return args
 
     def build(self) -> Scene:
-        """The scene (:func:`~jaxchain.scenes.engagement` of :meth:`arguments`), with
-        ``elements`` added."""
-        return self._with_elements(engagement(**self.arguments()))
+        """The scene this spec describes (what :func:`~jaxchain.scenes.engagement` of
+        :meth:`arguments` gives), with ``elements`` added."""
+        args = self.arguments()
+        m = args.pop("model")
+        return self._with_elements(
+            build_engagement(args.pop("chain"), args.pop("teeth"), m=m, **args)
+        )
 
 
 def drive(
@@ -549,5 +553,74 @@ def drive(
         take_up_sprocket=take_up_sprocket, centre_distance=centre_distance, n_links=n_links,
         speed_rpm=speed_rpm, pretension=pretension, fidelity=fidelity, tensioner=tensioner,
         guides=guides, **flat,
+    )  # fmt: skip
+    return spec.build()
+
+
+def engagement(
+    chain: ChainSpec | str = "08B",
+    teeth: int = 18,
+    *,
+    speed_rpm: float = 1000.0,
+    tension: float = 1000.0,
+    slack_tension: float = 100.0,
+    wrap: int | None = None,
+    n_entry: int = 8,
+    n_exit: int = 4,
+    fidelity: Literal["lumped", "clearance"] = "lumped",
+    profile: AbstractProfile | None = None,
+    span_stiffness: float | None = None,
+    model: ChainModel | None = None,
+    **older,
+) -> Scene:
+    """The meshing-impact scene used for design: a driver sprocket turning counter-clockwise
+    at ``speed_rpm`` draws an open chain strand in from a tight entry span (held at
+    ``tension`` far away) and lets it out into a slack exit span (``slack_tension``).
+
+    ``wrap`` rollers start seated (default z/2), ``n_entry`` rollers on the entry span mesh
+    one after the other, one per tooth period 2π/(zω): the scene's horizon
+    (``Scene.horizon``) is ``n_entry`` tooth periods, and a longer solve is refused. Each
+    free span end runs on a guide moving at that span's mean
+    speed (the polygon's mean speed z·p·ω/2π with the pitch stretched by the span's
+    tension, so the span's tension does not drift), pulled by its tension through a soft
+    spring (``span_stiffness``, default 1/50 of a link's: the rest of a 50-link span).
+    With ``settle`` (default) the strand starts from its static equilibrium on the held
+    sprocket (:func:`~jaxchain.scenes.equilibrate`); False starts from the layout.
+
+    ``model`` (a :class:`~jaxchain.scenes.ChainModel`, default ``ChainModel()``) sets how
+    the chain and its contacts are modelled, as in :func:`~jaxchain.scenes.drive`; its
+    fields are still taken as keywords, with a ``DeprecationWarning``. Its ``elongation``
+    is the chain's wear: a worn chain rides higher in the gaps, the more so the further a
+    roller is along the wrap.
+    Its ``cushion`` is one :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>`
+    on the sprocket (or None); its link plates press on it, in the settled start too (08B
+    on 18 teeth: seated plate edges at ≈ 30.1 mm from the axis); a drive's ``load_ramp``
+    and ``shoe_contact`` are not used. Other arguments as in
+    :func:`~jaxchain.scenes.drive`. The strand is built through its spec, a
+    :class:`~jaxchain.scenes.StrandSpec` of these arguments.
+    """
+    m = model_of("engagement", model, older)
+    # what the spec's sprocket checks, in this function's words
+    checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
+    if profile is not None:
+        checks.instance(
+            "profile", profile, AbstractProfile,
+            "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile) "
+            "or None",
+        )  # fmt: skip
+        if profile.teeth != teeth:
+            raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
+    if m.cushion is not None and not isinstance(m.cushion, CushionRing):
+        raise TypeError(
+            f"cushion must be a jc.elements.CushionRing or None, got "
+            f"{type(m.cushion).__name__} {m.cushion!r}"
+        )
+    names = {f.name for f in dataclasses.fields(StrandSpec)}
+    flat = {name: getattr(m, name) for name in MODEL_FIELDS if name in names}
+    spec = StrandSpec(
+        chain=chain, speed_rpm=speed_rpm, fidelity=fidelity,
+        sprocket=SprocketSpec(teeth, profile=profile, load=None), tension=tension,
+        slack_tension=slack_tension, wrap=wrap, n_entry=n_entry, n_exit=n_exit,
+        span_stiffness=span_stiffness, **flat,
     )  # fmt: skip
     return spec.build()
