@@ -33,7 +33,32 @@ from .shoes import Guide, Tensioner
 from .spans import spans_drive
 from .statics import equilibrate
 
-__all__ = ["build_drive"]
+__all__ = ["build_drive", "two_sprockets"]
+
+
+def two_sprockets(teeth, outside=(), take_up_sprocket=None) -> tuple[int, int]:
+    """The (driver, driven) tooth counts of a drive given no ``centres``, checked: the
+    sprockets' placement (``outside``, ``take_up_sprocket``) needs centres, and more than
+    two tooth counts do too."""
+    given = {"outside": np.size(outside) > 0, "take_up_sprocket": take_up_sprocket is not None}
+    for name, value in given.items():
+        if value:
+            raise ValueError(
+                f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
+            )
+    if (
+        isinstance(teeth, Sequence | np.ndarray)
+        and not isinstance(teeth, (str, bytes))
+        and len(teeth) != 2
+    ):
+        raise ValueError(
+            f"teeth must hold 2 tooth counts (driver, driven), got {len(teeth)}: {teeth!r}; "
+            "for a drive over more sprockets give their axes in centres=((x1, y1), ...)"
+        )
+    z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
+    return tuple(
+        checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate((z1, z2))
+    )
 
 
 def build_drive(a: DriveArgs, m: ChainModel) -> Scene:
@@ -92,24 +117,7 @@ def build_drive(a: DriveArgs, m: ChainModel) -> Scene:
             a._replace(centres=centres, centre_distance=None, teeth=teeth, guides=guides),
             m.replace(rollers_on_bush=rollers_on_bush, gravity=gravity),
         )
-    given = {"outside": np.size(a.outside) > 0, "take_up_sprocket": a.take_up_sprocket is not None}
-    for name, value in given.items():
-        if value:
-            raise ValueError(
-                f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
-            )
-    if (
-        isinstance(teeth, Sequence | np.ndarray)
-        and not isinstance(teeth, (str, bytes))
-        and len(teeth) != 2
-    ):
-        raise ValueError(
-            f"teeth must hold 2 tooth counts (driver, driven), got {len(teeth)}: {teeth!r}; "
-            "for a drive over more sprockets give their axes in centres=((x1, y1), ...)"
-        )
-    z1, z2 = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
-    for k, z in enumerate((z1, z2)):
-        checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH)
+    z1, z2 = two_sprockets(teeth, a.outside, a.take_up_sprocket)
     rings = as_cushions(m.cushion, 2)
     load, load_torque = as_load("load_torque", load_torque, a.omega * z1 / z2)
     check_load_ramp((load,), load_ramp)

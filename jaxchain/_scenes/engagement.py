@@ -10,8 +10,8 @@ import numpy as np
 from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._elements.anchors import Anchors
-from .._elements.cushion import CushionContacts, CushionRing
-from .._profiles.base import MAX_TEETH, AbstractProfile
+from .._elements.cushion import CushionContacts
+from .._profiles.base import AbstractProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Scene, Sprocket
 from .build import (
@@ -53,19 +53,14 @@ def build_engagement(
     m: ChainModel,
 ) -> Scene:
     """The strand :func:`~jaxchain.scenes.engagement` describes, modelled by ``m`` (what
-    :meth:`~jaxchain.scenes.StrandSpec.build` builds)."""
+    :meth:`~jaxchain.scenes.StrandSpec.build` builds; its sprocket's teeth and profile and
+    its cushion ring are checked by the spec)."""
     omega = rad_per_s(speed_rpm)
     chain = as_chain(chain)
     gravity = as_gravity(m.gravity)
-    checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
     m.check_fidelity(fidelity)
     cushion, restitution = m.cushion, m.restitution
     rollers_on_bush = rollers_on_bush_of(chain, m.rollers_on_bush)
-    if cushion is not None and not isinstance(cushion, CushionRing):
-        raise TypeError(
-            f"cushion must be a jc.elements.CushionRing or None, got {type(cushion).__name__} "
-            f"{cushion!r}"
-        )
     if fidelity == "spans":
         raise ValueError(
             "fidelity='spans' has no rollers to mesh: the engagement strand needs 'lumped' "
@@ -81,13 +76,7 @@ def build_engagement(
         checks.real("span_stiffness", span_stiffness, lo=0.0, lo_open=True, unit="N/m")
     if profile is None:
         profile = ToothProfile.iso606(chain, teeth, m.form)
-    checks.instance(
-        "profile", profile, AbstractProfile,
-        "a tooth profile (jc.ToothProfile, jc.FreeformProfile, any jc.AbstractProfile) or None",
-    )  # fmt: skip
     check_profile(chain, profile)
-    if profile.teeth != teeth:
-        raise ValueError(f"profile has {profile.teeth} teeth, teeth={teeth}")
     if wrap is None:
         wrap = teeth // 2
     sprocket_chain = chain  # the sprocket is cut for the unworn pitch

@@ -24,7 +24,7 @@ from .._profiles.base import MAX_TEETH, AbstractProfile
 from .._profiles.iso import ToothProfile
 from .._scene import Scene
 from .common import disc_inertia, per_driven
-from .drive import build_drive
+from .drive import build_drive, two_sprockets
 from .engagement import build_engagement
 from .loop import as_centres, as_outside
 from .model import MODEL_FIELDS, ChainModel, DriveArgs, ModelFields, model_of, rad_per_s
@@ -120,11 +120,18 @@ class _ChainModel(ModelFields, _Operating):
         """A copy with ``changes`` (field=value)."""
         return dataclasses.replace(self, **changes)
 
+    @classmethod
+    def _flat(cls, model: ChainModel) -> dict:
+        """The fields of ``model`` (a :class:`ChainModel`, or a spec) that this spec class
+        carries flat, by name: what :attr:`model` gathers, and what a builder's model gives
+        its spec."""
+        own = {f.name for f in dataclasses.fields(cls)}
+        return {name: getattr(model, name) for name in MODEL_FIELDS if name in own}
+
     @property
     def model(self) -> ChainModel:
         """How the spec models the chain: its :class:`ChainModel` fields as one object."""
-        fields = {name: getattr(self, name) for name in MODEL_FIELDS if hasattr(self, name)}
-        return ChainModel(**fields)
+        return ChainModel(**self._flat(self))
 
     def _model(self, **model) -> dict:
         """The builders' keywords the chain model sets: chain, speed, fidelity and the
@@ -291,28 +298,16 @@ class DriveSpec(_ChainModel):
         per-sprocket ones (``teeth``, ``centres``, ``outside``, ``load_torque``,
         ``profiles``, ``driven_inertia``, ``cushion``) gathered into
         :class:`SprocketSpec` s."""
-        if centres is None and rest.get("tensioner") is None and not rest.get("guides"):
-            placed = {"outside": np.size(outside) > 0}
-            placed["take_up_sprocket"] = rest.get("take_up_sprocket") is not None
-            for name, given in placed.items():
-                if given:
-                    raise ValueError(
-                        f"{name} needs centres: give the axis (x, y) of every sprocket in centres"
-                    )
-        if centres is None:  # two sprockets on the x axis
-            if isinstance(teeth, Sequence | np.ndarray) and not isinstance(teeth, (str, bytes)):
-                if len(teeth) != 2:
-                    raise ValueError(
-                        f"teeth must hold 2 tooth counts (driver, driven), got {len(teeth)}: "
-                        f"{teeth!r}; for a drive over more sprockets give their axes in "
-                        "centres=((x1, y1), ...)"
-                    )
-            teeth = checks.pair("teeth", teeth, 2, "tooth counts (driver, driven)")
-        elif isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
-            raise TypeError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
-        teeth = tuple(
-            checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth)
-        )
+        if centres is None and (rest.get("tensioner") is not None or rest.get("guides")):
+            teeth = two_sprockets(teeth)  # the tensioner or guides place the two sprockets
+        elif centres is None:
+            teeth = two_sprockets(teeth, outside, rest.get("take_up_sprocket"))
+        else:
+            if isinstance(teeth, (str, bytes)) or not isinstance(teeth, Sequence | np.ndarray):
+                raise TypeError(f"teeth must be a sequence of tooth counts, got {teeth!r}")
+            teeth = tuple(
+                checks.integer(f"teeth[{k}]", z, lo=7, hi=MAX_TEETH) for k, z in enumerate(teeth)
+            )
         n = len(teeth)
         if n < 2:
             raise ValueError(f"teeth must hold at least 2 tooth counts (driver first), got {n}")
@@ -546,13 +541,12 @@ def drive(
     """
     driven_inertia = older.pop("driven_inertia", None)
     m = model_of("drive", model, older)
-    flat = {name: getattr(m, name) for name in MODEL_FIELDS if name != "cushion"}
     spec = DriveSpec.of(
         chain, teeth, centres=centres, outside=outside, load_torque=load_torque,
         profiles=profiles, driven_inertia=driven_inertia, cushion=m.cushion,
         take_up_sprocket=take_up_sprocket, centre_distance=centre_distance, n_links=n_links,
         speed_rpm=speed_rpm, pretension=pretension, fidelity=fidelity, tensioner=tensioner,
-        guides=guides, **flat,
+        guides=guides, **DriveSpec._flat(m),
     )  # fmt: skip
     return spec.build()
 
@@ -615,12 +609,10 @@ def engagement(
             f"cushion must be a jc.elements.CushionRing or None, got "
             f"{type(m.cushion).__name__} {m.cushion!r}"
         )
-    names = {f.name for f in dataclasses.fields(StrandSpec)}
-    flat = {name: getattr(m, name) for name in MODEL_FIELDS if name in names}
     spec = StrandSpec(
         chain=chain, speed_rpm=speed_rpm, fidelity=fidelity,
         sprocket=SprocketSpec(teeth, profile=profile, load=None), tension=tension,
         slack_tension=slack_tension, wrap=wrap, n_entry=n_entry, n_exit=n_exit,
-        span_stiffness=span_stiffness, **flat,
+        span_stiffness=span_stiffness, **StrandSpec._flat(m),
     )  # fmt: skip
     return spec.build()
