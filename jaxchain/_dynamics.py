@@ -32,6 +32,7 @@ __all__ = [
     "vector_field",
     "rates",
     "outputs",
+    "CHAIN_OUTPUTS",
     "Forces",
     "energy",
     "roller_contacts",
@@ -464,6 +465,14 @@ def rates(t, y: DriveState, scene: Scene, fr: Forces) -> DriveState:
         dof_rate=dof_acc,
         bristle=None if y.bristle is None else fr.bristle_rate,
     )
+
+
+#: the names :func:`outputs` gives the chain's and the sprockets' own quantities; every
+#: other output is a force element's (``AbstractElement.outputs``)
+CHAIN_OUTPUTS = (
+    "roller_position", "roller_velocity", "roller_sprocket_force", "link_tension",
+    "sprocket_speed", "sprocket_angle", "sprocket_torque", "span_tension",
+)  # fmt: skip
 
 
 def outputs(t, y: DriveState, scene: Scene) -> dict[str, Array]:

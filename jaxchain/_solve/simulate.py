@@ -11,6 +11,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float, Int
 
 from .. import _checks as checks
+from .._dynamics import CHAIN_OUTPUTS
 from .._numerics import is_concrete
 from .._observers.base import (
     AbstractIntegralObserver,
@@ -184,14 +185,6 @@ _ENSEMBLE_ONLY = (
     "batch_sizes",
     "n_devices",
 )
-
-
-#: the saved outputs of the chain and the sprockets themselves; every other saved output
-#: is a force element's (``AbstractElement.outputs``)
-CHAIN_OUTPUTS = (
-    "roller_position", "roller_velocity", "roller_sprocket_force", "link_tension",
-    "sprocket_speed", "sprocket_angle", "sprocket_torque", "span_tension",
-)  # fmt: skip
 
 
 def split_saved(saved: dict) -> dict:
