@@ -111,6 +111,36 @@ def finish(
     return results
 
 
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` so a reader (or a resumed study) sees the old file or
+    the new one, never half of one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def jsonable(x):
+    """``x`` as JSON takes it: numpy scalars as numbers, non-finite floats as null,
+    arrays in dicts left out."""
+    import math
+
+    import numpy as np
+
+    if isinstance(x, dict):
+        return {k: jsonable(v) for k, v in x.items() if not isinstance(v, np.ndarray)}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
 def save_chart(fig, results: dict, path: Path, rect=(0, 0, 1, 1)) -> None:
     """Title ``fig`` with the study's command and date, lay it out inside ``rect`` (room
     left for a figure legend), write it to ``path``, close it."""

@@ -64,7 +64,15 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import OUT, loadavg, machine_info, parse, parser  # noqa: E402  # noqa: E402
+from benchmarks.common import (  # noqa: E402
+    OUT,
+    jsonable,
+    loadavg,
+    machine_info,
+    parse,
+    parser,
+    write_atomic,
+)
 from optimize.problem import (  # noqa: E402
     Problem,
     Settings,
@@ -73,7 +81,6 @@ from optimize.problem import (  # noqa: E402
     profile_values,
     remeasure,
 )
-from optimize.run import failures, jsonable, save_figure, write_atomic  # noqa: E402
 
 ADAM = OUT / "optimize_iso" / "results.json"  # the main job in the ISO box (--problem iso)
 SOBOL_SEED = 20240606
@@ -278,7 +285,7 @@ def objective(problem: Problem, u) -> dict:
     return {
         "objective_N": float(value),
         "objective_member_soft_N": np.atleast_1d(np.asarray(members.soft)).tolist(),
-        "objective_failures": [m for m in failures(members) if m],
+        "objective_failures": [m for m in jc.result_messages(members.result) if m],
         "objective_s": time.perf_counter() - t,
     }
 
@@ -802,7 +809,7 @@ def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Pat
         f"{res['total_s'] / 60:.0f} min"
     )
     fig.tight_layout()
-    save_figure(fig, path)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
 

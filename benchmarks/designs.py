@@ -26,7 +26,7 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from jaxchain.design import DesignSpace, ProfileObjective  # noqa: E402
+from jaxchain.design import DesignSpace, ProfileObjective, SoftMax  # noqa: E402
 from optimize.problem import Settings  # noqa: E402
 
 LEARNING_RATE = 1.0  # Adam's step in u (the sigmoid coordinate of each box)
@@ -153,8 +153,8 @@ def every_gap_objective(
     return ProfileObjective(
         space, lambda p: build_turned(p, **model), t1=EVERY_GAP_PERIODS * PERIOD,
         t_start=PERIOD, temperature=temperature, reference=1500.0,
-        member_temperature=member_temperature or temperature, combine=combine, dt=dt,
-        samples=samples, **kwargs,
+        combine=SoftMax(member_temperature or temperature) if combine == "max" else combine,
+        dt=dt, samples=samples, **kwargs,
     )  # fmt: skip
 
 

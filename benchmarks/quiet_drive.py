@@ -54,6 +54,7 @@ from benchmarks.common import (
     parser,
     quiet_drive_scene,
     single_thread_env,
+    write_atomic,
 )
 
 CHAIN, Z, Z_DRIVEN = DRIVE_CHAIN, DRIVE_Z, DRIVE_Z_DRIVEN
@@ -224,8 +225,6 @@ def chart(results: dict, path: Path) -> None:
 
 
 def main(argv=None) -> dict:
-    from optimize.run import write_atomic
-
     ap = parser(__doc__, "two designs, one speed, a short window")
     ap.add_argument("--processes", type=int, default=max(1, (os.cpu_count() or 2) - 1))
     ap.add_argument("--revs", type=float, default=2.3, help="driver revolutions per solve")

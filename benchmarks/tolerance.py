@@ -402,8 +402,7 @@ def _numbers(text: str, option: str) -> tuple[float, ...]:
 
 
 def main(argv=None) -> dict:
-    from benchmarks.common import machine_info
-    from optimize.run import write_atomic
+    from benchmarks.common import machine_info, write_atomic
 
     ap = parser(__doc__, "one δ (20 µm), 2 samples, the worst operating point")
     ap.add_argument("--processes", type=int, default=min(16, os.cpu_count() or 1))

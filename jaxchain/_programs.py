@@ -16,6 +16,12 @@ the caller's ``jax.jit``/``jax.grad``) or a program that cannot be exported runs
 ordinary way. The store is on when JAX's persistent compilation cache is
 (``jax_compilation_cache_dir``), in a folder beside it (``JAXCHAIN_PROGRAM_STORE=<folder>``
 puts it elsewhere), and off with ``JAXCHAIN_PROGRAM_STORE=0``.
+
+The store keeps the programs of each version of jaxchain and its libraries in a folder of
+their own (named by :func:`_environment`'s digest). A process that saves a program also
+removes the folders of the versions that saved nothing for :data:`KEEP_DAYS` days beyond
+the :data:`KEEP` newest, so that a store shared by several checkouts (or a long history
+of commits) stays bounded.
 """
 
 from __future__ import annotations
@@ -41,6 +47,8 @@ import numpy as np
 __all__ = ["stored", "store_folder"]
 
 FORMAT = 1
+KEEP = 4  # versions' folders always kept, the most recently written first
+KEEP_DAYS = 7.0  # older versions' folders are kept while written to within this many days
 LIBRARIES = ("jax", "jaxlib", "diffrax", "equinox", "optimistix", "lineax")
 _TRUSTED = ("jaxchain", "diffrax", "equinox", "optimistix", "lineax", "jax", "jaxlib")
 _MEMORY: dict[str, object] = {}  # key -> (jitted call, skeleton), or None: not storable
@@ -206,7 +214,48 @@ def _export(fn, leaves, treedef, static):
     return exported, box[0]
 
 
+@functools.cache
+def _generation() -> str:
+    """The folder name of this version's programs: a digest of :func:`_environment`."""
+    return hashlib.sha256(_environment().encode()).hexdigest()[:16]
+
+
+def _prune(store: Path, keep: str) -> None:
+    """Remove the folders of other versions beyond the :data:`KEEP` most recently written
+    and older than :data:`KEEP_DAYS` (a version still in use elsewhere writes to its own
+    folder and keeps it young), and entries of the store's former flat layout."""
+    import shutil
+    import time
+
+    try:
+        entries = list(store.iterdir())
+    except OSError:
+        return
+    old = time.time() - KEEP_DAYS * 86400.0
+    folders = []
+    for entry in entries:
+        if entry.name == keep or entry.name.startswith("."):
+            continue
+        try:
+            if entry.is_dir():
+                folders.append((entry.stat().st_mtime, entry))
+            elif len(entry.name) == 64:  # a program saved flat, before versions' folders
+                entry.unlink(missing_ok=True)
+        except OSError:
+            continue
+    folders.sort(reverse=True)
+    for mtime, folder in folders[KEEP - 1 :]:
+        if mtime < old:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+_PRUNED: set[Path] = set()  # stores pruned by this process (once each)
+
+
 def _save(folder: Path, key: str, exported, skeleton) -> None:
+    if folder.parent not in _PRUNED:
+        _PRUNED.add(folder.parent)
+        _prune(folder.parent, folder.name)
     folder.mkdir(parents=True, exist_ok=True)
     data = pickle.dumps({"exported": bytes(exported.serialize()), "skeleton": skeleton})
     fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-")
@@ -266,6 +315,7 @@ def stored(name: str):
         def call(*args):
             folder = store_folder()
             key = None if folder is None else _key(name, args)
+            folder = None if folder is None else folder / _generation()
             if key is None or _MEMORY.get(key, _ABSENT) is None:  # not storable
                 return fn(*args)
             dynamic, static = eqx.partition(args, eqx.is_array)

@@ -22,8 +22,9 @@ reads it) to --out; checkpoints every iteration (--resume continues after
 an interrupt). Adam's gradient is clipped to a norm of 100 N (--clip; 0 turns it off):
 a rebound that appears or vanishes spikes it. ``JAXCHAIN_FAST=1`` (or --fast) runs a
 small version for smoke tests. Compiled solves are kept in a persistent compilation
-cache, ``.jax_cache/`` in the working directory (``JAX_COMPILATION_CACHE_DIR`` moves
-it): a second run skips most of the compile time.
+cache, ``~/.cache/jaxchain`` (``JAXCHAIN_CACHE`` or ``JAX_COMPILATION_CACHE_DIR`` moves
+it; ``optimize/xla_flags.py``): a second run, from any checkout, skips most of the
+compile time.
 """
 
 from __future__ import annotations
@@ -40,9 +41,10 @@ from pathlib import Path
 os.environ.setdefault("EQX_ON_ERROR", "nan")
 # XLA's older CPU fusion emitters: a third less compile time, results equal to rounding
 # (a flag of its own in XLA_FLAGS stands; optimize/xla_flags.py)
-from .xla_flags import fast_compile  # noqa: E402  (imports no JAX)
+from .xla_flags import fast_compile, use_user_cache  # noqa: E402  (imports no JAX)
 
 fast_compile()
+CACHE = use_user_cache()  # before JAX reads its configuration from the environment
 
 try:
     import optax  # noqa: F401
@@ -169,8 +171,7 @@ def main(argv=None) -> dict:
 
     jax.config.update("jax_enable_x64", True)  # the application (not the library) picks x64
     # compiled solves persist across runs (a second run skips most of the compile time)
-    cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", ".jax_cache")
-    jax.config.update("jax_compilation_cache_dir", cache)
+    jax.config.update("jax_compilation_cache_dir", CACHE)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
     import jaxchain as jc
 

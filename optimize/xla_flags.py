@@ -1,7 +1,8 @@
-"""The XLA compiler flag the main job and the test suite set before JAX starts its
-backend (``optimize/__main__.py``, ``tests/conftest.py``). The library itself sets
-nothing; a notebook or script gets the same with ``XLA_FLAGS`` set to :data:`FLAG` in
-its environment.
+"""What the main job and the test suite set in the environment before JAX starts
+(``optimize/__main__.py``, ``tests/conftest.py``): the XLA compiler flag below and the
+persistent caches' folder (:func:`use_user_cache`). The library itself sets nothing; a
+notebook or script gets the same with ``XLA_FLAGS`` set to :data:`FLAG` and
+``JAX_COMPILATION_CACHE_DIR`` in its environment.
 
 XLA's CPU backend with its newer fusion emitters off compiles jaxchain's solves in about
 a third less time at the same run time, with results equal to rounding (jaxlib 0.10.2 on
@@ -18,8 +19,10 @@ from __future__ import annotations
 
 import os
 from importlib import metadata
+from pathlib import Path
 
 FLAG = "--xla_cpu_use_fusion_emitters=false"
+CACHE_SIZE = 4 << 30  # [bytes] XLA's compiled programs kept, least recently used dropped
 MEASURED = ((0, 10),)  # jaxlib (major, minor) releases the flag was measured on
 
 
@@ -43,3 +46,26 @@ def fast_compile(environ=os.environ, version: tuple[int, int] | None = None) -> 
         return False
     environ["XLA_FLAGS"] = f"{flags} {FLAG}".strip()
     return True
+
+
+def user_cache(environ=os.environ) -> Path:
+    """The folder of the persistent caches: ``$JAXCHAIN_CACHE``, else ``jaxchain`` in the
+    user's cache folder (``$XDG_CACHE_HOME``, else ``~/.cache``). Per user rather than per
+    checkout, so that a fresh clone (CI's, a second worktree) starts with the programs an
+    earlier run compiled: XLA's cache keys hold the program without its source paths, and
+    jaxchain's stored programs are keyed by its source's digest, so code that changed
+    compiles anew and code that did not is read back."""
+    if environ.get("JAXCHAIN_CACHE"):
+        return Path(environ["JAXCHAIN_CACHE"])
+    base = environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "jaxchain"
+
+
+def use_user_cache(environ=os.environ) -> str:
+    """Point JAX's persistent compilation cache at :func:`user_cache` unless
+    ``JAX_COMPILATION_CACHE_DIR`` is set already (a user's own choice stands), bounded to
+    :data:`CACHE_SIZE` (``JAX_COMPILATION_CACHE_MAX_SIZE``, which needs ``filelock``).
+    Call it before JAX is imported. Returns the folder in effect."""
+    environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(user_cache(environ)))
+    environ.setdefault("JAX_COMPILATION_CACHE_MAX_SIZE", str(CACHE_SIZE))
+    return environ["JAX_COMPILATION_CACHE_DIR"]

@@ -1,12 +1,14 @@
 """Test configuration: float64 everywhere (the library itself never flips JAX config), and
-a persistent compilation cache in the repository (``.jax_cache/``), shared by the test
-workers, the notebooks they execute and the main job's runs."""
+the persistent compilation cache in the user's cache folder (``~/.cache/jaxchain``,
+``optimize/xla_flags.py``), shared by the test workers, the notebooks they execute, the
+main job's runs and every checkout of the repository on the machine."""
 
 import os
 from pathlib import Path
 
-CACHE = Path(__file__).resolve().parents[1] / ".jax_cache"
-os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", str(CACHE))  # notebook kernels inherit it
+from optimize.xla_flags import fast_compile, use_user_cache  # noqa: E402  (imports no JAX)
+
+use_user_cache()  # in the environment: notebook kernels and subprocesses inherit it
 # As in the main job and the notebooks: equinox's in-graph checks return NaN instead of
 # calling back to Python (jaxchain reports failures as result codes, checked outside the
 # graph); XLA's persistent cache keeps only computations without host callbacks.
@@ -15,8 +17,6 @@ os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
 # XLA's older CPU fusion emitters, as the main job: a third less compile time
 # (optimize/xla_flags.py); each xdist worker on a core of its own (tests/xla_flags.py)
 from xla_flags import pin_worker  # noqa: E402  (imports no JAX)
-
-from optimize.xla_flags import fast_compile  # noqa: E402  (imports no JAX)
 
 fast_compile()
 pin_worker()

@@ -45,3 +45,33 @@ def test_no_import_runs_up(layer):
         if _owner(path) == layer:
             up = {m for m in imports(path) if m.startswith("_")} - allowed
             assert not up, f"{path.relative_to(ROOT)} imports {sorted(up)}, above {layer}"
+
+
+#: what the studies and notebooks may import from the main job: its problem definitions
+#: (the runner, optimize.run, and the command line are the job's own)
+PROBLEMS = {
+    "optimize", "optimize.problem", "optimize.clearance", "optimize.timing", "optimize.quiet"
+}  # fmt: skip
+
+
+def absolute_imports(path: Path) -> set[str]:
+    """The modules ``path`` imports by absolute name (``import a.b``, ``from a.b import c``)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            out.add(node.module)
+        elif isinstance(node, ast.Import):
+            out |= {a.name for a in node.names}
+    return out
+
+
+def test_studies_use_the_main_job_s_problems_only_and_the_job_no_study():
+    """benchmarks/ and the notebooks' generators import from optimize/ only its problem
+    definitions, never its runner; optimize/ imports nothing from benchmarks/."""
+    repo = ROOT.parent
+    for path in [*repo.glob("benchmarks/*.py"), *repo.glob("notebooks/_make_*.py")]:
+        used = {m for m in absolute_imports(path) if m.split(".")[0] == "optimize"}
+        assert used <= PROBLEMS, f"{path.relative_to(repo)} imports {sorted(used - PROBLEMS)}"
+    for path in repo.glob("optimize/*.py"):
+        used = {m for m in absolute_imports(path) if m.split(".")[0] == "benchmarks"}
+        assert not used, f"{path.relative_to(repo)} imports {sorted(used)}"

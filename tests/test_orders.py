@@ -251,8 +251,7 @@ def test_band_level_design_gradient_matches_central_differences(monkeypatch, tmp
         lambda p: [_build(p, RPM), _build(p, 1.2 * RPM)],
         t1=2 * PERIOD,
         objective=objective,
-        member_temperature=0.5,
-        combine="max",
+        combine=jc.design.SoftMax(0.5),
         dt=4e-6,
     )
     rng = np.random.default_rng(3)

@@ -16,10 +16,11 @@ from helpers import count_vector_field_calls
 
 @pytest.fixture
 def store(tmp_path, monkeypatch):
-    """A store of its own in ``tmp_path`` and an empty memory (a fresh process's)."""
+    """A store of its own in ``tmp_path`` and an empty memory (a fresh process's); the
+    folder this version of jaxchain saves its programs in."""
     monkeypatch.setenv("JAXCHAIN_PROGRAM_STORE", str(tmp_path / "programs"))
     monkeypatch.setattr(programs, "_MEMORY", {})
-    return tmp_path / "programs"
+    return tmp_path / "programs" / programs._generation()
 
 
 class Held(eqx.Module):
@@ -95,7 +96,7 @@ def test_what_a_key_cannot_identify_runs_the_ordinary_way(store):
     assert seen == [None]  # a traced argument
     run = programs.stored("test.mine")(eqx.filter_jit(lambda m: m.a * 2))
     np.testing.assert_array_equal(run(Mine(x)), 2 * x)
-    assert not store.exists()
+    assert not store.parent.exists()
 
 
 def test_off_without_a_compilation_cache_or_when_switched_off(store, monkeypatch):
@@ -109,7 +110,45 @@ def test_off_without_a_compilation_cache_or_when_switched_off(store, monkeypatch
     run(jnp.ones(2), (1,))
     monkeypatch.setattr(programs, "_cache_dir", lambda: "/somewhere")
     assert programs.store_folder() == programs.Path("/somewhere/jaxchain-programs")
-    assert not store.exists()
+    assert not store.parent.exists()
+
+
+def test_other_versions_folders_are_pruned_when_old(store, monkeypatch):
+    """Each version of jaxchain and its libraries saves into its own folder; the first
+    save of a process removes other versions' folders that are both beyond the KEEP most
+    recently written and older than KEEP_DAYS, and entries of the former flat layout."""
+    import os
+    import time
+
+    assert (programs.KEEP, programs.KEEP_DAYS) == (4, 7.0)
+    root = store.parent
+
+    def versions(ages):  # days since each other version last saved
+        now = time.time()
+        for i, days in enumerate(ages):
+            (root / f"{i:016x}").mkdir(parents=True)
+            (root / f"{i:016x}" / "entry").write_bytes(b"x")
+            os.utime(root / f"{i:016x}", (now - days * 86400, now - days * 86400))
+
+    def kept():
+        return [int(p.name, 16) for p in sorted(root.iterdir()) if p != store]
+
+    # all old: the KEEP - 1 = 3 newest others stay
+    versions([10.0, 20.0, 30.0, 40.0, 9.0])
+    flat = root / ("0" * 64)
+    flat.write_bytes(b"old layout")
+    programs.stored("test.poly")(eqx.filter_jit(_poly))(jnp.ones(2), (1,))  # prunes
+    assert kept() == [0, 1, 4] and not flat.exists()
+    assert len(list(store.iterdir())) == 1  # this version's program saved
+    # all young: every one stays, beyond the 3 newest too
+    for p in root.iterdir():
+        if p != store:
+            for f in p.iterdir():
+                f.unlink()
+            p.rmdir()
+    versions([1.0, 2.0, 3.0, 5.0, 6.0, 8.0])
+    programs._prune(root, store.name)
+    assert kept() == [0, 1, 2, 3, 4]
 
 
 def test_a_damaged_entry_is_traced_anew(store, monkeypatch):

@@ -310,7 +310,7 @@ BAD = [
     (lambda: objective(temperature="20"), TypeError, "temperature must be a real number"),
     (lambda: objective(take_up=-5.0), ValueError, "take_up must be >= 0 N"),
     (lambda: objective(sprocket=-1), ValueError, "sprocket must be an integer >= 0"),
-    (lambda: objective(combine="min"), ValueError, "combine must be one of 'mean', 'max'"),
+    (lambda: objective(combine="min"), ValueError, "combine must be one of 'mean', 'max', 'worst'"),
     (lambda: objective(throw="yes"), TypeError, "throw must be True or False"),
     (lambda: objective(gradient="both"), ValueError, "gradient must be one of 'auto'"),
     (

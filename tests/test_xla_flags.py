@@ -1,10 +1,12 @@
-"""The XLA flag of the main job and the test suite (optimize/xla_flags.py), and the test
-workers' cores (tests/xla_flags.py)."""
+"""The XLA flag and the caches' folder of the main job and the test suite
+(optimize/xla_flags.py), and the test workers' cores (tests/xla_flags.py)."""
+
+from pathlib import Path
 
 import pytest
 from xla_flags import worker_core
 
-from optimize.xla_flags import FLAG, MEASURED, fast_compile
+from optimize.xla_flags import CACHE_SIZE, FLAG, MEASURED, fast_compile, use_user_cache
 
 
 def test_compile_flag_only_where_measured():
@@ -18,6 +20,20 @@ def test_compile_flag_only_where_measured():
     assert mine["XLA_FLAGS"] == "--xla_cpu_use_fusion_emitters=true"
     other = {}
     assert not fast_compile(other, (99, 0)) and "XLA_FLAGS" not in other
+
+
+def test_the_caches_are_the_users_unless_set():
+    """The compilation cache (and the program store inside it) is per user, not per
+    checkout: $JAXCHAIN_CACHE, else $XDG_CACHE_HOME/jaxchain, else ~/.cache/jaxchain; a
+    folder set in JAX_COMPILATION_CACHE_DIR stands, and the size bound is set once."""
+    env = {"XDG_CACHE_HOME": "/x/cache"}
+    assert use_user_cache(env) == "/x/cache/jaxchain"
+    assert env["JAX_COMPILATION_CACHE_MAX_SIZE"] == str(CACHE_SIZE) == str(4 << 30)
+    assert use_user_cache({"JAXCHAIN_CACHE": "/mine", "XDG_CACHE_HOME": "/x"}) == "/mine"
+    home = use_user_cache({})
+    assert home == str(Path.home() / ".cache" / "jaxchain")
+    chosen = {"JAX_COMPILATION_CACHE_DIR": "/here", "JAX_COMPILATION_CACHE_MAX_SIZE": "-1"}
+    assert use_user_cache(chosen) == "/here" and chosen["JAX_COMPILATION_CACHE_MAX_SIZE"] == "-1"
 
 
 def test_each_worker_its_own_core_when_there_are_enough():

@@ -3,7 +3,9 @@ an ensemble of operating points, with its gradient (see :mod:`jaxchain.design`).
 
 from __future__ import annotations
 
+import abc
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
@@ -39,6 +41,10 @@ from .space import DesignSpace, coordinate
 from .sprocket import SprocketDesign, place
 
 __all__ = [
+    "AbstractReduction",
+    "Mean",
+    "SoftMax",
+    "Worst",
     "PeakForce",
     "Observed",
     "Penalized",
@@ -217,16 +223,85 @@ def _soft_peak(t_start, rise, temperature, reference, samples):
     return SoftPeak(t_start, rise, temperature, reference)
 
 
+class AbstractReduction(eqx.Module):
+    """How a :class:`ProfileObjective` combines its members' values (one per operating
+    point) into the objective: a function of the (M,) values, differentiable where the
+    design needs it. Subclass it for a reduction of your own (a weighted mean, a
+    quantile); its array fields are traced, so a new weight does not recompile."""
+
+    @abc.abstractmethod
+    def __call__(self, values: Float[Array, " M"]) -> Float[Array, ""]:
+        """The objective from the members' values."""
+
+
+class Mean(AbstractReduction):
+    """The members' mean: every operating point counts alike."""
+
+    def __call__(self, values):
+        return jnp.mean(values)
+
+
+class SoftMax(AbstractReduction):
+    """A soft maximum of the members, their log-mean-exp at ``temperature`` [objective
+    units]: the worst member dominates, and the gradient still sees the others within a
+    few temperatures of it. ``temperature`` None: the default soft peak's (the
+    objective's ``temperature``)."""
+
+    temperature: Array | None = None
+
+    def __init__(self, temperature: float | None = None):
+        if temperature is not None and is_concrete(temperature):
+            checks.real("SoftMax.temperature", temperature, lo=0.0, lo_open=True)
+        self.temperature = None if temperature is None else jnp.asarray(temperature, float)
+
+    def __call__(self, values):
+        tau = self.temperature
+        return tau * (jax.nn.logsumexp(values / tau) - math.log(values.shape[0]))
+
+
+class Worst(AbstractReduction):
+    """The worst (largest) member's value: its gradient is that member's alone, and jumps
+    where another member overtakes it (:class:`SoftMax` is the smooth form)."""
+
+    def __call__(self, values):
+        return jnp.max(values)
+
+
+#: ``combine``'s names for the reductions
+REDUCTIONS = {"mean": Mean, "max": SoftMax, "worst": Worst}
+
+
+def _reduction(combine, temperature: float, member_temperature) -> AbstractReduction:
+    """``combine`` (a name of :data:`REDUCTIONS` or a reduction) as a reduction, a
+    :class:`SoftMax` without its own temperature at ``member_temperature`` (the older
+    keyword), else at the default soft peak's ``temperature``."""
+    if isinstance(combine, str):
+        checks.choice("combine", combine, tuple(REDUCTIONS))
+        combine = REDUCTIONS[combine]()
+    checks.instance(
+        "combine", combine, AbstractReduction,
+        f"one of {', '.join(map(repr, REDUCTIONS))} or a jc.design reduction (Mean(), "
+        "SoftMax(temperature), Worst(), any jc.design.AbstractReduction)",
+    )  # fmt: skip
+    if isinstance(combine, SoftMax) and combine.temperature is None:
+        tau = temperature if member_temperature is None else member_temperature
+        tau = checks.real(
+            "member_temperature" if member_temperature is not None else "temperature",
+            tau, lo=0.0, lo_open=True, unit="(objective units)",
+        )  # fmt: skip
+        combine = SoftMax(tau)
+    return combine
+
+
 class _Config(eqx.Module):
     """Objective settings: arrays are traced, the rest (static) fixes the compiled shape."""
 
     objective: AbstractObserver
-    member_temperature: Array
+    reduction: AbstractReduction
     options: SolveOptions
     t1: float = eqx.field(static=True)
     sprocket: int = eqx.field(static=True)
     take_up: float = eqx.field(static=True)
-    combine: str = eqx.field(static=True)
 
 
 def _member(u, space, scene, inverse, cfg):
@@ -237,10 +312,7 @@ def _member(u, space, scene, inverse, cfg):
 
 def _combine(values, cfg):
     """The members' values (M,) combined into the objective."""
-    if cfg.combine == "mean":
-        return jnp.mean(values)
-    tau = cfg.member_temperature  # soft maximum of the members (log-mean-exp)
-    return tau * (jax.nn.logsumexp(values / tau) - math.log(values.shape[0]))
+    return cfg.reduction(values)
 
 
 # members: the scenes' array leaves (stack keeps the agreed non-array leaves as they are)
@@ -383,8 +455,10 @@ class ProfileObjective:
     equilibrium's dependence on the profile into the gradient (implicit function
     theorem; each settled scene's statics Jacobian is computed once, outside the
     differentiated function, by :func:`~jaxchain.scenes.statics_jacobian`). Ensemble
-    members are vmapped and combined by ``combine``: "mean", or "max", a soft maximum of
-    the members (log-mean-exp at ``member_temperature``).
+    members are vmapped and combined by ``combine``, a reduction: "mean" (:class:`Mean`),
+    "max" (:class:`SoftMax`, the members' log-mean-exp at the default soft peak's
+    ``temperature``, or ``SoftMax(temperature)`` at its own), "worst" (:class:`Worst`,
+    the largest member) or any :class:`AbstractReduction`.
 
     The measure is ``objective``, any observer with a scalar value integrated by the one
     solve (:class:`~jaxchain.observers.BandLevel` for the largest mesh-order line [dB],
@@ -419,13 +493,14 @@ class ProfileObjective:
         objective: the observer measured (default: the soft peak force below).
         t_start, temperature, reference: the default objective's, as in
             :func:`soft_peak_force`.
-        member_temperature: the members' soft maximum's temperature [objective units]
-            (default ``temperature``).
         samples: the default objective's parts per step (0: integrated by the solver's
             stages, for adaptive solves; ≥ 1: sampled, for fixed steps).
         sprocket: index of the designed sprocket in the scenes.
         take_up: the take-up the scenes were settled with (closed drives).
-        combine: "mean" or "max" over the members.
+        combine: the members' reduction: "mean", "max", "worst" or a reduction
+            (:class:`SoftMax` ``(temperature)`` for the soft maximum at a temperature
+            of its own [objective units]; the older keyword ``member_temperature=τ``
+            still gives it, with a ``DeprecationWarning``).
         throw: raise when a member fails (see above).
         sharding: None, or "auto": members shared among the processes (see above).
         gradient: "forward" (one tangent per coordinate, carried through the solve by
@@ -446,11 +521,10 @@ class ProfileObjective:
         t_start: float = 0.0,
         temperature: float = 50.0,
         reference: float = 0.0,
-        member_temperature: float | None = None,
         samples: int = 0,
         sprocket: int = 0,
         take_up: float = 0.0,
-        combine: str = "mean",
+        combine: str | AbstractReduction = "mean",
         throw: bool = True,
         sharding: str | None = None,
         gradient: str = "auto",
@@ -462,19 +536,21 @@ class ProfileObjective:
             raise TypeError(
                 f"build must be a function profile -> scene(s), got {type(build).__name__}"
             )
-        checks.choice("combine", combine, ("mean", "max"))
         t1 = checks.real("t1", t1, lo=0.0, lo_open=True, unit="s")
         temperature = checks.real("temperature", temperature, lo=0.0, lo_open=True, unit="N")
         reference = checks.real("reference", reference, unit="N")
         t_start = checks.real(
             "t_start", t_start, lo=0.0, hi=t1, hi_open=True, unit=f"s (t1 = {t1:.6g} s)"
         )
-        if member_temperature is None:
-            member_temperature = temperature
-        member_temperature = checks.real(
-            "member_temperature", member_temperature, lo=0.0, lo_open=True,
-            unit="(objective units)",
-        )  # fmt: skip
+        member_temperature = solve_options.pop("member_temperature", None)
+        if member_temperature is not None:
+            warnings.warn(
+                "ProfileObjective(member_temperature=τ) is now spelled "
+                "combine=jc.design.SoftMax(τ)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+        reduction = _reduction(combine, temperature, member_temperature)
         if objective is None:
             rise = 0.05 * (t1 - t_start)
             objective = _soft_peak(t_start, rise, temperature, reference, samples)
@@ -495,12 +571,11 @@ class ProfileObjective:
         self.throw = bool(throw)
         self.config = _Config(
             objective=objective,
-            member_temperature=jnp.asarray(member_temperature, dtype=float),
+            reduction=reduction,
             options=with_options(options, solve_options, "ProfileObjective"),
             t1=float(t1),
             sprocket=int(sprocket),
             take_up=float(take_up),
-            combine=combine,
         )
         self.gradient = _gradient_mode(gradient, space, self.config.options)
         # the forward gradient's solve carries the tangents through diffrax's own loop
