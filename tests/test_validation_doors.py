@@ -149,6 +149,21 @@ BAD = [
     ),
     ("harmonic-mean-nan", lambda: jc.loads.Harmonic(NAN), ValueError, "mean must be finite"),
     (
+        "strand-load-ramp",
+        lambda: jc.scenes.engagement(model=jc.scenes.ChainModel(settle=False, load_ramp=0.01)),
+        ValueError,
+        r"model.load_ramp set, but the meshing strand has no load ramp",
+    ),
+    (
+        "strand-shoe-contact",
+        lambda: jc.scenes.engagement(
+            model=jc.scenes.ChainModel(settle=False, shoe_contact=jc.scenes.shoe_law("08B", 0.7))
+        ),
+        ValueError,
+        r"model.replace\(shoe_contact=None\)\), or use jc.scenes.drive",
+    ),
+    ("shoe-law-restitution", lambda: jc.scenes.shoe_law("08B", 0.0), ValueError, "restitution"),
+    (
         "harmonic-rows-int",
         lambda: jc.loads.Harmonic(1.0, 5),
         TypeError,

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _checks as checks
-from .._chain import ChainSpec
+from .._chain import ChainSpec, as_chain
 from .._contact.flores import Flores
 from .._contact.friction import CoulombFriction
 from .._elements.shoes import Shoes
@@ -38,10 +38,15 @@ POLYAMIDE = Material(youngs_modulus=3.0e9, poisson_ratio=0.4, density=1180.0)
 SHOE_FRICTION = CoulombFriction(coefficient=0.08, slip_velocity=1e-2)
 
 
-def shoe_law(chain: ChainSpec, restitution: float, material: Material = POLYAMIDE) -> Flores:
+def shoe_law(
+    chain: ChainSpec | str, restitution: float, material: Material = POLYAMIDE
+) -> Flores:
     """Roller/shoe contact: a line contact along the roller (0.95·b1 long) on the shoe's
     face, linear in the overlap, K = (π/4)·E*·ℓ [N/m] (the line contact's compliance up
-    to its logarithm), Flores hysteresis damping for ``restitution``."""
+    to its logarithm), Flores hysteresis damping for ``restitution``. ``chain``: an ISO
+    606 designation or a :class:`~jaxchain.ChainSpec`."""
+    chain = as_chain(chain)
+    checks.real("restitution", restitution, lo=0.0, hi=1.0, lo_open=True)
     estar = effective_modulus(material, STEEL)
     stiffness = 0.25 * math.pi * estar * 0.95 * chain.inner_width
     return Flores(

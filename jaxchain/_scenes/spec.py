@@ -589,11 +589,21 @@ def engagement(
     Its ``cushion`` is one :class:`jc.elements.CushionRing <jaxchain.elements.CushionRing>`
     on the sprocket (or None); its link plates press on it, in the settled start too (08B
     on 18 teeth: seated plate edges at ≈ 30.1 mm from the axis); a drive's ``load_ramp``
-    and ``shoe_contact`` are not used. Other arguments as in
+    and ``shoe_contact`` have nothing to act on here, and a model that sets them is
+    refused (``ValueError``). Other arguments as in
     :func:`~jaxchain.scenes.drive`. The strand is built through its spec, a
     :class:`~jaxchain.scenes.StrandSpec` of these arguments.
     """
     m = model_of("engagement", model, older)
+    unused = [name for name in ("load_ramp", "shoe_contact") if getattr(m, name) is not None]
+    if unused:
+        reset = ", ".join(f"{name}=None" for name in unused)
+        raise ValueError(
+            f"engagement: model.{' and model.'.join(unused)} set, but the meshing strand "
+            "has no load ramp (its driver turns at its set speed from a settled start or "
+            "the layout) and no tensioner or guides; leave them at None "
+            f"(model.replace({reset})), or use jc.scenes.drive, which uses them"
+        )
     # what the spec's sprocket checks, in this function's words
     checks.integer("teeth", teeth, lo=7, hi=MAX_TEETH)
     if profile is not None:
