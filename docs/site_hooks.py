@@ -1,8 +1,8 @@
 """mkdocs hook: the site's pages are the repository's own files at their own paths —
 README.md as the home page (index.md), docs/*.md, the user guide's pages (docs/guide/*.md),
-the studies' README with the charts and movies it shows, the executed notebooks — and an API
-reference generated from the docstrings (docs/api.md), so a relative link between them works
-on the site as in the repository."""
+the studies' README and notes (benchmarks/*.md) with the charts and movies they show, the
+executed notebooks — and an API reference generated from the docstrings (docs/api.md), so a
+relative link between them works on the site as in the repository."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def _pages() -> dict[str, Path]:
     for pattern in (
         "docs/*.md",
         "docs/guide/*.md",
-        "benchmarks/README.md",
+        "benchmarks/*.md",
         "benchmarks/archive/README.md",
         "notebooks/*.ipynb",
         "benchmarks/results/**/*.png",

@@ -15,7 +15,8 @@ import pytest
 
 import jaxchain as jc
 from jaxchain._dynamics import DriveState, forces, initial_state
-from jaxchain._scenes.build import assemble, chain_bodies, roller_law
+from jaxchain._scenes.build import assemble, roller_law
+from jaxchain._scenes.fidelity import chain_bodies
 from jaxchain._scenes.statics import equilibrate
 
 from helpers import central_fd, fixed_step_joints, modelled, tooth_period

@@ -16,7 +16,7 @@ from markdown.extensions.toc import slugify  # the anchors mkdocs' toc extension
 ROOT = Path(__file__).resolve().parents[1]
 GUIDE = ROOT / "docs" / "guide"
 #: the site's markdown pages, which link into the guide
-LINKING = ("README.md", "docs/**/*.md", "benchmarks/README.md", "benchmarks/archive/README.md")
+LINKING = ("README.md", "docs/**/*.md", "benchmarks/*.md", "benchmarks/archive/README.md")
 _FENCED = re.compile(r"^```.*?^```", re.S | re.M)
 _LINK = re.compile(r"\]\(([^()\s]+)\)")
 _HEADING = re.compile(r"^#{1,6}\s+(.+?)\s*$", re.M)
@@ -56,7 +56,7 @@ def anchors(page: Path) -> set[str]:
 
 
 def test_links_into_the_guide_land_on_a_page_and_heading():
-    """Every relative link from README.md, docs/ and the studies' README into the user guide
+    """Every relative link from README.md, docs/ and the studies' pages into the user guide
     (docs/guide/, or the former docs/guide.md) names a page that exists and, with an anchor,
     a heading of that page: a page renamed or a heading reworded fails here, without a
     site build (mkdocs.yml reports missing anchors only as info)."""
@@ -90,6 +90,28 @@ def test_the_contents_and_the_nav_list_every_guide_page():
         assert f"docs/guide/{page.name}" in nav, page.name
         assert nav.index("docs/guide/index.md") < nav.index(f"docs/guide/{page.name}")
     assert not (ROOT / "docs" / "guide.md").exists()  # the guide is its pages, once
+
+
+def test_every_study_has_a_short_section_and_its_notes():
+    """benchmarks/README.md is the studies' index: every study (each script under benchmarks/
+    with a main, and the main job's committed runs) has a short section there under its own
+    name, which links its notes, benchmarks/<name>.md beside the script; the notes start with
+    the study's name and the site's nav lists them."""
+    benchmarks = ROOT / "benchmarks"
+    readme = (benchmarks / "README.md").read_text()
+    sections = dict(re.findall(r"^## (\S+)\n(.*?)(?=^## |\Z)", readme, re.S | re.M))
+    sections.pop("Index")
+    scripts = {p.stem for p in benchmarks.glob("*.py") if "__main__" in p.read_text()}
+    assert scripts <= set(sections), sorted(scripts - set(sections))
+    nav = (ROOT / "mkdocs.yml").read_text()
+    for name, body in sections.items():
+        notes = benchmarks / f"{name}.md"
+        assert notes.is_file(), name
+        text = notes.read_text()
+        assert text.startswith(f"# {name}\n") and len(text) > 500, name
+        assert f"]({name}.md)" in body, name
+        assert len(body.strip().splitlines()) <= 6, name  # short: the notes hold the rest
+        assert f"benchmarks/{name}.md" in nav, name
 
 
 def undefined_names(code: str) -> set[str]:

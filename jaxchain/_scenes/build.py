@@ -1,22 +1,8 @@
-"""Turn an ordered list of roller centres into chain bodies and force elements.
-
-``"lumped"``: each roller is a point mass carrying half of each adjacent link, joined to
-its neighbours by elastic links (spring-dampers of rest length p).
-
-``"clearance"``: the source paper's model. Rigid roller links (inner plates + bushes) and
-pin links (outer plates + pins), 3 DOF each, alternate along the chain; every articulation
-is a pin/bush revolute clearance joint, and each roller is a body of its own on its bush,
-held by a second (bush/roller) clearance joint. Both joints use Johnson's conformal law.
-With ``rollers="lumped"`` the roller is fixed to its bush instead (its mass and inertia
-added to the roller link): the cheaper variant, compared in ``benchmarks/``.
-
-A bush chain (``ChainSpec.kind == "bush"``) has no roller: its bushes, part of the inner
-(roller) links, engage the teeth. The clearance chain is then the source paper's bushing
-chain, pin links and bushing links joined by pin/bush clearance joints only, each bush's
-circle (d1) in the tooth contact; the lumped chain's points are the bushes, their angle
-unused. Either way a bush turns with its inner link (``ChainBodies.bush_link``), so it
-slides on the tooth where a roller would roll (:mod:`jaxchain._elements.rollers`).
-"""
+"""What the fidelities build chains from and the builders assemble scenes with: the
+contact laws of the teeth and joints (:func:`roller_law`, :func:`joint_law`), the link
+stiffness, the default friction laws, the chain's bodies (:class:`ChainBodies`, made by a
+fidelity, :mod:`.fidelity`) and :func:`assemble`, which puts bodies, sprockets and
+elements into a :class:`~jaxchain.Scene`."""
 
 from __future__ import annotations
 
@@ -30,14 +16,13 @@ from .. import _checks as checks
 from .._chain import ChainSpec, as_chain
 from .._contact.base import AbstractContactLaw
 from .._contact.dahl import DahlFriction
-from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction import CoulombFriction
 from .._contact.friction_base import AbstractFrictionLaw
 from .._contact.johnson import JohnsonCylinder
 from .._elements.anchors import Anchors
 from .._elements.gravity import Gravity
 from .._elements.joint_friction import JointFriction
-from .._elements.pairs import ClearanceJoints, LinkSprings, PairGroup
+from .._elements.pairs import ClearanceJoints, PairGroup
 from .._elements.rollers import RollerTeeth
 from .._elements.shoes import Shoes
 from .._elements.tensioners import Tensioners
@@ -47,13 +32,11 @@ from .._scene import Scene, Sprocket
 __all__ = [
     "assemble",
     "ChainBodies",
-    "chain_bodies",
     "joint_law",
     "roller_law",
     "link_stiffness",
     "JOINT_FRICTION",
     "CLEARANCE_JOINT_FRICTION",
-    "default_joint_friction",
     "rollers_on_bush_of",
     "BUSH_TOOTH_FRICTION",
     "default_tooth_friction",
@@ -90,13 +73,6 @@ def default_tooth_friction(bush_chain: bool) -> AbstractFrictionLaw | None:
     :data:`BUSH_TOOTH_FRICTION` for a bush chain, None (frictionless) for a roller
     chain."""
     return BUSH_TOOTH_FRICTION if bush_chain else None
-
-
-def default_joint_friction(fidelity: str) -> AbstractFrictionLaw:
-    """The joint friction a builder uses by default (``joint_friction="default"``):
-    :data:`JOINT_FRICTION` in the lumped chain, :data:`CLEARANCE_JOINT_FRICTION` in the
-    clearance chain."""
-    return CLEARANCE_JOINT_FRICTION if fidelity == "clearance" else JOINT_FRICTION
 
 
 class ChainBodies(NamedTuple):
@@ -212,171 +188,6 @@ def _tension_weights(n_links: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return w / np.maximum(w.sum(axis=1, keepdims=True), 1.0)
 
 
-def chain_bodies(
-    chain: ChainSpec,
-    rollers: np.ndarray,
-    velocities: np.ndarray,
-    *,
-    closed: bool,
-    fidelity: Literal["lumped", "clearance"],
-    restitution: float,
-    rollers_on_bush: Literal["joint", "lumped"] | None = None,
-    link_load: float = 0.0,
-    damping_ratio: float = 0.05,
-    pin_law: AbstractContactLaw | None = None,
-    bush_law: AbstractContactLaw | None = None,
-    joint_friction: AbstractFrictionLaw | str | None = None,
-    lubrication: AbstractFilmLaw | None = None,
-) -> ChainBodies:
-    """Bodies and force elements of a chain whose roller centres are ``rollers`` (n, 2),
-    ordered along the chain, moving at ``velocities`` (n, 2). See the module docstring.
-
-    ``rollers_on_bush``: the clearance chain's roller on its own clearance joint
-    (``"joint"``) or fixed to its bush (``"lumped"``); None: the chain's own model
-    (:func:`rollers_on_bush_of`: a roller chain's ``"joint"``, a bush chain's bush in its
-    link).
-
-    ``joint_friction``: friction in the joints (None: frictionless joints; ``"default"``:
-    :func:`default_joint_friction` of the fidelity). The lumped chain carries it as a
-    friction moment between consecutive links (:class:`~jaxchain._scene.JointFriction`,
-    pin radius d2/2); the clearance chain at the contacts of its pin/bush and bush/roller
-    joints. ``lubrication``: an oil film in the clearance chain's joints (None: dry), over
-    the length of each joint's contact (:func:`joint_law`)."""
-    if isinstance(joint_friction, str):
-        joint_friction = default_joint_friction(fidelity)
-    rollers_on_bush = rollers_on_bush_of(chain, rollers_on_bush)
-    rollers = np.asarray(rollers, dtype=float)
-    velocities = np.asarray(velocities, dtype=float)
-    n = len(rollers)
-    p = chain.pitch
-    n_links = n if closed else n - 1
-    idx = np.arange(n_links)
-    nxt = (idx + 1) % n
-    zero2 = np.zeros((n_links, 2))
-    bush_link = None if chain.has_roller else _bush_link(n, closed)
-    if fidelity == "lumped":
-        m = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
-        mass = np.full(n, m)
-        if not closed:  # end rollers carry only half of one link
-            mass[[0, -1]] = chain.roller_mass + 0.25 * (
-                chain.roller_link_mass + chain.pin_link_mass
-            )
-        k = link_stiffness(chain, link_load)
-        c = 2 * damping_ratio * math.sqrt(k * m / 2)
-        springs = PairGroup(
-            a=jnp.asarray(idx),
-            b=jnp.asarray(nxt),
-            ra=jnp.asarray(zero2),
-            rb=jnp.asarray(zero2),
-            element=LinkSprings(
-                stiffness=jnp.asarray(k), damping=jnp.asarray(c), rest_length=jnp.asarray(p)
-            ),
-        )
-        q0 = np.column_stack([rollers, np.zeros(n)])
-        v0 = np.column_stack([velocities, np.zeros(n)])
-        # a point's angle carries no torque (a roller spins free; a bush turns with its
-        # inner link, whose rotation the points' positions carry): a bush chain's point
-        # gets the inertia of a disc of the bush's radius only to keep that unused
-        # equation finite
-        spin_inertia = chain.roller_inertia if chain.has_roller else m * chain.roller_radius**2 / 2
-        return ChainBodies(
-            mass=mass,
-            inertia=np.full(n, spin_inertia),
-            pairs=(springs,),
-            roller_body=np.arange(n),
-            roller_offset=np.zeros((n, 2)),
-            q0=q0,
-            v0=v0,
-            link_weights=np.eye(n_links),
-            joint_friction=_lumped_joint_friction(chain, n, closed, joint_friction),
-            bush_link=bush_link,
-        )
-    if fidelity != "clearance":
-        raise ValueError(f"fidelity must be 'lumped' or 'clearance', got {fidelity!r}")
-    if n % 2:
-        raise ValueError(
-            f"the clearance model alternates roller and pin links, so it needs an even number "
-            f"of rollers (two per roller link), got {n}"
-        )
-    q_link, v_link = _link_frames(rollers, velocities, closed)
-    is_roller_link = idx % 2 == 0
-    half = np.array([p / 2, 0.0])
-    pin_law = pin_law or joint_law(chain, "pin", restitution)
-    # pin links (odd) carry pins at ±p/2 in the bushes of the neighbouring roller links
-    # (an open strand of even roller count starts and ends with roller links, so every
-    # pin link has both neighbours)
-    pl = idx[~is_roller_link]
-    a = np.concatenate([pl, pl])
-    b = np.concatenate([pl - 1, (pl + 1) % n_links])
-    ra = np.concatenate([np.tile(-half, (len(pl), 1)), np.tile(half, (len(pl), 1))])
-    rb = -ra
-    pin_joints = PairGroup(
-        a=jnp.asarray(a),
-        b=jnp.asarray(b),
-        ra=jnp.asarray(ra),
-        rb=jnp.asarray(rb),
-        element=_clearance(
-            pin_law, chain.pin_diameter / 2, joint_friction, lubrication, _length(chain, "pin")
-        ),
-    )
-    m_link = np.where(is_roller_link, chain.roller_link_mass, chain.pin_link_mass)
-    j_link = np.where(is_roller_link, chain.roller_link_inertia, chain.pin_link_inertia)
-    # rollers: on the bushes of roller link i (even): roller i at −p/2, roller i+1 at +p/2
-    host = np.where(np.arange(n) % 2 == 0, np.arange(n), np.arange(n) - 1)
-    side = np.where(np.arange(n) % 2 == 0, -1.0, 1.0)
-    offs = side[:, None] * half
-    c, s = np.cos(q_link[host, 2]), np.sin(q_link[host, 2])
-    arm = np.column_stack([c * offs[:, 0] - s * offs[:, 1], s * offs[:, 0] + c * offs[:, 1]])
-    bush_x = q_link[host, :2] + arm
-    bush_v = v_link[host, :2] + v_link[host, 2:3] * np.column_stack([-arm[:, 1], arm[:, 0]])
-    pairs = [pin_joints]
-    if rollers_on_bush == "lumped":
-        m_link = m_link + np.where(is_roller_link, 2 * chain.roller_mass, 0.0)
-        j_link = j_link + np.where(
-            is_roller_link, 2 * (chain.roller_inertia + chain.roller_mass * (p / 2) ** 2), 0.0
-        )
-        mass, inertia = m_link, j_link
-        q0, v0 = q_link, v_link
-        roller_body, roller_offset = host, offs
-    elif rollers_on_bush == "joint":
-        bush_law = bush_law or joint_law(chain, "roller", restitution)
-        rbody = n_links + np.arange(n)
-        pairs.append(
-            PairGroup(
-                a=jnp.asarray(host),
-                b=jnp.asarray(rbody),
-                ra=jnp.asarray(offs),
-                rb=jnp.asarray(np.zeros((n, 2))),
-                element=_clearance(
-                    bush_law,
-                    chain.bush_diameter / 2,
-                    joint_friction,
-                    lubrication,
-                    _length(chain, "roller"),
-                ),
-                carries_tension=False,
-            )
-        )
-        mass = np.concatenate([m_link, np.full(n, chain.roller_mass)])
-        inertia = np.concatenate([j_link, np.full(n, chain.roller_inertia)])
-        q0 = np.concatenate([q_link, np.column_stack([bush_x, np.zeros(n)])])
-        v0 = np.concatenate([v_link, np.column_stack([bush_v, np.zeros(n)])])
-        roller_body, roller_offset = rbody, np.zeros((n, 2))
-    else:
-        raise ValueError(f"rollers_on_bush must be 'joint' or 'lumped', got {rollers_on_bush!r}")
-    return ChainBodies(
-        mass=mass,
-        inertia=inertia,
-        pairs=tuple(pairs),
-        roller_body=roller_body,
-        roller_offset=roller_offset,
-        q0=q0,
-        v0=v0,
-        link_weights=_tension_weights(n_links, a, b),
-        bush_link=bush_link,
-    )
-
-
 def rollers_on_bush_of(chain: ChainSpec, rollers_on_bush: str | None) -> str:
     """The clearance chain's roller model for ``chain``: ``rollers_on_bush`` as given, or
     the chain's own for None (a roller chain's ``"joint"``; a bush chain's ``"lumped"``,
@@ -459,7 +270,7 @@ def assemble(
     roller_contact: AbstractContactLaw,
     friction: AbstractFrictionLaw | str | None,
     impact_speed: float,
-    fidelity: str,
+    fidelity,
     tensile_strength: float,
     horizon: float = math.inf,
     gravity=None,
@@ -487,7 +298,7 @@ def assemble(
         link_weights=jnp.asarray(bodies.link_weights),
         horizon=jnp.asarray(horizon, dtype=float),
         tensile_strength=jnp.asarray(tensile_strength, dtype=float),
-        fidelity=fidelity,
+        fidelity=str(fidelity),  # its name (a fidelity object or the name itself)
         elements=elements,
         bush_link=None if bodies.bush_link is None else jnp.asarray(bodies.bush_link),
     )

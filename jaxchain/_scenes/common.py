@@ -15,13 +15,11 @@ from .._loads import AbstractLoad
 from .._numerics import is_concrete
 from .._profiles.base import AbstractProfile
 from .._profiles.iso import ToothProfile
-from .build import joint_law, link_stiffness
 
 __all__ = [
     "disc_inertia",
     "contact_slots",
     "check_profile",
-    "stretch_of",
     "worn",
     "as_gravity",
 ]
@@ -61,15 +59,6 @@ def check_below_strength(chain: ChainSpec, what: str, tension: float, fix: str) 
             f"{what} is {tension:.4g} N, at or above the chain's tensile strength "
             f"{chain.tensile_strength:.4g} N (ISO 606 minimum; a real chain breaks): {fix}"
         )
-
-
-def stretch_of(chain: ChainSpec, fidelity: str, tension: float) -> float:
-    """Roller spacing minus pitch of a chain under ``tension`` (for the initial layout)."""
-    if fidelity == "lumped":
-        return tension / link_stiffness(chain, tension)
-    law = joint_law(chain, "pin", 1.0)
-    # mean of p (roller links) and p + 2·eccentricity (pin links)
-    return float(law.clearance) + float(law.deflection(tension))
 
 
 def check_profile(chain: ChainSpec, profile: ToothProfile, what: str = "profile") -> None:

@@ -14,7 +14,7 @@ from .._elements.cushion import CushionContacts, as_cushions
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
-from .build import assemble, chain_bodies, roller_law, rollers_on_bush_of
+from .build import assemble, roller_law, rollers_on_bush_of
 from .common import (
     as_gravity,
     as_load,
@@ -23,12 +23,12 @@ from .common import (
     check_load_ramp,
     contact_slots,
     disc_inertia,
-    stretch_of,
     worn,
 )
+from .fidelity import as_fidelity, chain_bodies
 from .layout import closed_drive_layout, transport_velocity
 from .loop_drive import loop_drive
-from .model import _DEFAULTS, ChainModel, DriveArgs, _is_default
+from .model import ChainModel, DriveArgs
 from .shoes import Guide, Tensioner
 from .spans import spans_drive
 from .statics import equilibrate
@@ -64,28 +64,10 @@ def two_sprockets(teeth, outside=(), take_up_sprocket=None) -> tuple[int, int]:
 def build_drive(a: DriveArgs, m: ChainModel) -> Scene:
     """The drive ``a`` modelled by ``m`` (what :meth:`~jaxchain.scenes.DriveSpec.build`
     builds, and so :func:`~jaxchain.scenes.drive`)."""
-    m.check_fidelity(a.fidelity)
-    if a.fidelity == "spans":  # what only a chain of links and rollers uses: refused
-        given = [
-            name
-            for name in (
-                "restitution", "friction", "joint_friction", "impact_speed",
-                "rollers_on_bush", "roller_contact", "settle", "shoe_contact",
-            )
-            if not _is_default(getattr(m, name), _DEFAULTS[name])
-        ]  # fmt: skip
-        if given:
-            raise ValueError(
-                f"fidelity='spans' has no rollers, links or joints and does not use "
-                f"{', '.join(given)} (its spans are axial springs between the sprockets' "
-                "pitch curves, its start always settled, its shoes frictionless circles): "
-                "leave them at their defaults, or use fidelity='lumped' or 'clearance'"
-            )
-        if m.cushion is not None:
-            raise ValueError(
-                "cushion: fidelity='spans' has no links for a cushion ring's plates to press "
-                "on; use fidelity='lumped' or 'clearance' with cushion rings (or cushion=None)"
-            )
+    fidelity = as_fidelity(a.fidelity)
+    fidelity.check(m)
+    a = a._replace(fidelity=fidelity)
+    if not fidelity.has_links:  # the span-level chain: its own builder
         return _spans(a, m)
     chain, teeth, centres, fidelity = a.chain, a.teeth, a.centres, a.fidelity
     tensioner, guides, pretension = a.tensioner, a.guides, a.pretension
@@ -139,7 +121,7 @@ def build_drive(a: DriveArgs, m: ChainModel) -> Scene:
         centre_distance = 40 * chain.pitch
     pitch = chain.pitch  # the sprockets are cut for the unworn pitch
     chain = worn(chain, m.elongation)
-    stretch = stretch_of(chain, fidelity, pretension)
+    stretch = fidelity.stretch(chain, pretension)
     lay = closed_drive_layout(
         pitch,
         z1,

@@ -16,7 +16,6 @@ from .._profiles.iso import ToothProfile
 from .._scene import Scene, Sprocket
 from .build import (
     assemble,
-    chain_bodies,
     link_stiffness,
     roller_law,
     rollers_on_bush_of,
@@ -27,9 +26,9 @@ from .common import (
     check_profile,
     contact_slots,
     disc_inertia,
-    stretch_of,
     worn,
 )
+from .fidelity import AbstractFidelity, as_fidelity, chain_bodies
 from .layout import strand_layout
 from .model import ChainModel, rad_per_s
 from .statics import equilibrate
@@ -47,7 +46,7 @@ def build_engagement(
     wrap: int | None,
     n_entry: int,
     n_exit: int,
-    fidelity: str,
+    fidelity: str | AbstractFidelity,
     profile: AbstractProfile | None,
     span_stiffness: float | None,
     m: ChainModel,
@@ -58,13 +57,14 @@ def build_engagement(
     omega = rad_per_s(speed_rpm)
     chain = as_chain(chain)
     gravity = as_gravity(m.gravity)
-    m.check_fidelity(fidelity)
+    fidelity = as_fidelity(fidelity)
+    fidelity.check(m)
     cushion, restitution = m.cushion, m.restitution
     rollers_on_bush = rollers_on_bush_of(chain, m.rollers_on_bush)
-    if fidelity == "spans":
+    if not fidelity.has_links:
         raise ValueError(
-            "fidelity='spans' has no rollers to mesh: the engagement strand needs 'lumped' "
-            "or 'clearance' (the span-level chain is a fidelity of jc.scenes.drive)"
+            f"fidelity={fidelity.name!r} has no rollers to mesh: the engagement strand needs "
+            "'lumped' or 'clearance' (the span-level chain is a fidelity of jc.scenes.drive)"
         )
     tension = checks.real(
         "tension", tension, lo=0.0, lo_open=True, unit="N (a slack entry span does not mesh)"
@@ -81,15 +81,14 @@ def build_engagement(
         wrap = teeth // 2
     sprocket_chain = chain  # the sprocket is cut for the unworn pitch
     chain = worn(chain, m.elongation)
-    if fidelity == "clearance" and (wrap + n_entry + n_exit) % 2:
-        n_exit += 1  # the clearance strand needs an even roller count
+    n_exit += fidelity.even_rollers(wrap + n_entry + n_exit) - (wrap + n_entry + n_exit)
     lay = strand_layout(
         sprocket_chain.pitch,
         teeth,
         wrap=wrap,
         n_entry=n_entry,
         n_exit=n_exit,
-        link_pitch=chain.pitch + stretch_of(chain, fidelity, tension),
+        link_pitch=chain.pitch + fidelity.stretch(chain, tension),
     )
     rollers = np.asarray(lay.rollers)
     # rigid transport: seated rollers turn with the sprocket; each span translates at the
@@ -102,8 +101,8 @@ def build_engagement(
     # at the unstretched speed would lag by the stretch every tooth period and its spring
     # would pull the span's tension up by span_stiffness·stretch per period.
     rate = omega * teeth / (2 * math.pi)
-    v_entry = rate * (chain.pitch + stretch_of(chain, fidelity, tension))
-    v_exit = rate * (chain.pitch + stretch_of(chain, fidelity, slack_tension))
+    v_entry = rate * (chain.pitch + fidelity.stretch(chain, tension))
+    v_exit = rate * (chain.pitch + fidelity.stretch(chain, slack_tension))
     first, last = np.nonzero(seated)[0][[0, -1]]
     entry_dir, exit_dir = np.asarray(lay.entry_dir), np.asarray(lay.exit_dir)
     vel[:first] = -v_entry * entry_dir

@@ -13,7 +13,7 @@ from .._elements.cushion import CushionContacts, as_cushions
 from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
-from .build import assemble, chain_bodies, roller_law
+from .build import assemble, roller_law
 from .common import (
     as_loads,
     as_profiles,
@@ -21,9 +21,9 @@ from .common import (
     check_load_ramp,
     contact_slots,
     sprocket_inertias,
-    stretch_of,
     worn,
 )
+from .fidelity import as_fidelity, chain_bodies
 from .layout import chain_pitch_radius, transport_velocity
 from .loop import Circles, as_centres, as_outside, loop_layout
 from .model import ChainModel, DriveArgs
@@ -125,7 +125,7 @@ def tensioned_layout(pitch, lp, r_roller, teeth, centres, outside, profiles, n_l
 def loop_drive(a: DriveArgs, model: ChainModel) -> Scene:
     """The drive over N sprockets (see :func:`~jaxchain.scenes.drive`): ``a`` with its
     ``centres``, modelled by ``model``."""
-    chain, teeth, centres, fidelity = a.chain, a.teeth, a.centres, a.fidelity
+    chain, teeth, centres, fidelity = a.chain, a.teeth, a.centres, as_fidelity(a.fidelity)
     outside, take_up_sprocket, n_links = a.outside, a.take_up_sprocket, a.n_links
     load_torque, pretension, profiles = a.load_torque, a.pretension, a.profiles
     tensioner, guides, settle, load_ramp = a.tensioner, a.guides, model.settle, model.load_ramp
@@ -185,7 +185,7 @@ def loop_drive(a: DriveArgs, model: ChainModel) -> Scene:
         )
     pitch = chain.pitch  # the sprockets are cut for the unworn pitch
     chain = worn(chain, model.elongation)
-    stretch = stretch_of(chain, fidelity, pretension)
+    stretch = fidelity.stretch(chain, pretension)
     lp = chain.pitch + stretch
     r_roller = chain.roller_diameter / 2
     lay, real, iv, span_length = tensioned_layout(

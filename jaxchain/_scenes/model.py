@@ -16,9 +16,7 @@ from .._contact.film_base import AbstractFilmLaw
 from .._contact.friction_base import AbstractFrictionLaw
 from .._elements.cushion import CushionRing
 
-__all__ = ["ChainModel", "ModelFields", "DriveArgs", "model_of", "rad_per_s", "FIDELITIES"]
-
-FIDELITIES = ("lumped", "clearance", "spans")
+__all__ = ["ChainModel", "ModelFields", "DriveArgs", "model_of", "rad_per_s"]
 
 
 def rad_per_s(speed_rpm) -> float:
@@ -132,15 +130,18 @@ class ChainModel(ModelFields):
         """A copy with ``changes`` (field=value)."""
         return dataclasses.replace(self, **changes)
 
-    def check_fidelity(self, fidelity: str) -> None:
-        """``fidelity`` checked against the model: an oil film needs clearance joints."""
-        checks.choice("fidelity", fidelity, FIDELITIES)
-        if self.lubrication is not None and fidelity != "clearance":
-            raise ValueError(
-                f"lubrication: an oil film acts in the pin/bush and bush/roller clearance "
-                f"joints of fidelity='clearance'; fidelity={fidelity!r} has no clearance "
-                "joints (use fidelity='clearance', or lubrication=None)"
-            )
+    def check_fidelity(self, fidelity) -> None:
+        """``fidelity`` checked against the model (deprecated: the fidelity checks the
+        model, ``jc.scenes.Clearance().check(model)``)."""
+        from .fidelity import as_fidelity  # the fidelities read the model: imported late
+
+        warnings.warn(
+            "ChainModel.check_fidelity(fidelity) is now spelled "
+            "jc.scenes.as_fidelity(fidelity).check(model)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        as_fidelity(fidelity).check(self)
 
 
 class DriveArgs(NamedTuple):

@@ -38,9 +38,7 @@ POLYAMIDE = Material(youngs_modulus=3.0e9, poisson_ratio=0.4, density=1180.0)
 SHOE_FRICTION = CoulombFriction(coefficient=0.08, slip_velocity=1e-2)
 
 
-def shoe_law(
-    chain: ChainSpec | str, restitution: float, material: Material = POLYAMIDE
-) -> Flores:
+def shoe_law(chain: ChainSpec | str, restitution: float, material: Material = POLYAMIDE) -> Flores:
     """Roller/shoe contact: a line contact along the roller (0.95·b1 long) on the shoe's
     face, linear in the overlap, K = (π/4)·E*·ℓ [N/m] (the line contact's compliance up
     to its logarithm), Flores hysteresis damping for ``restitution``. ``chain``: an ISO

@@ -22,7 +22,8 @@ from .._loads import AbstractLoad
 from .._profiles.base import MAX_TEETH
 from .._scene import Scene, Sprocket
 from .build import link_stiffness, roller_law
-from .common import as_loads, as_profiles, check_load_ramp, sprocket_inertias, stretch_of
+from .common import as_loads, as_profiles, check_load_ramp, sprocket_inertias
+from .fidelity import Lumped
 from .loop import as_centres, as_outside
 from .loop_drive import as_guides, span_tensions, tensioned_layout, tensioner_tensions
 from .model import ChainModel, DriveArgs
@@ -233,7 +234,7 @@ def _place_shoe(tensioner, chain, centres, teeth, outside, profiles, n_links, te
     """(SpanShoe, Tensioners) of ``tensioner`` laid out as in the lumped chain
     (:func:`.loop_drive.tensioned_layout`, ``n_links`` setting how far it pushes), its arm
     at the layout's angle."""
-    stretch = stretch_of(chain, "lumped", float(tension[int(tensioner.span)]))
+    stretch = Lumped().stretch(chain, float(tension[int(tensioner.span)]))
     lp = chain.pitch + stretch
     lay, _, iv, span_length = tensioned_layout(
         chain.pitch, lp, chain.roller_diameter / 2, teeth, np.asarray(centres), outside,

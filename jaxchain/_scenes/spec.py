@@ -26,6 +26,7 @@ from .._scene import Scene
 from .common import disc_inertia, per_driven
 from .drive import build_drive, two_sprockets
 from .engagement import build_engagement
+from .fidelity import AbstractFidelity
 from .loop import as_centres, as_outside
 from .model import MODEL_FIELDS, ChainModel, DriveArgs, ModelFields, model_of, rad_per_s
 from .shoes import Guide, Tensioner
@@ -103,7 +104,7 @@ class _Operating:
 
     chain: ChainSpec | str = "08B"
     speed_rpm: float = 1000.0
-    fidelity: Literal["lumped", "clearance"] = "lumped"
+    fidelity: Literal["lumped", "clearance"] | AbstractFidelity = "lumped"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -452,7 +453,7 @@ def drive(
     speed_rpm: float = 1000.0,
     load_torque: float | AbstractLoad | Sequence[float | AbstractLoad] = 20.0,
     pretension: float = 200.0,
-    fidelity: Literal["lumped", "clearance", "spans"] = "lumped",
+    fidelity: Literal["lumped", "clearance", "spans"] | AbstractFidelity = "lumped",
     profiles: Sequence[AbstractProfile] | None = None,
     tensioner: Tensioner | None = None,
     guides: Sequence[Guide] = (),
@@ -512,13 +513,15 @@ def drive(
             every driven sprocket, or one per driven sprocket. The statics hold a load at its
             value at the start; a number is ramped in over ``load_ramp``.
         pretension: chain tension at rest [N], ≥ 0.
-        fidelity: "lumped" (rollers + elastic links), "clearance" (rigid links,
-            pin/bush and bush/roller clearance joints) or "spans" (no rollers: the free
-            spans as axial springs between the sprockets' pitch curves, for the drive's
-            tensions and speeds over many revolutions; fixed axes, a tensioner's shoe as a
-            frictionless circle the chain slides over, guides checked but without effect
-            (they lie along the straight spans, which do not move across), no gravity; see
-            :class:`jc.elements.Spans <jaxchain.elements.Spans>`).
+        fidelity: the fidelity, an object (``jc.scenes.Lumped()``, ``Clearance()``,
+            ``SpanLevel()``) or its name: "lumped" (rollers + elastic links),
+            "clearance" (rigid links, pin/bush and bush/roller clearance joints) or
+            "spans" (no rollers: the free spans as axial springs between the sprockets'
+            pitch curves, for the drive's tensions and speeds over many revolutions;
+            fixed axes, a tensioner's shoe as a frictionless circle the chain slides
+            over, guides checked but without effect (they lie along the straight spans,
+            which do not move across), no gravity; see :class:`jc.elements.Spans
+            <jaxchain.elements.Spans>`).
         profiles: one tooth profile per sprocket (default ISO 606 of ``model.form``).
         tensioner: a :class:`~jaxchain.scenes.Tensioner` on one span, or None.
         guides: fixed :class:`~jaxchain.scenes.Guide` shoes, each on a span (not the
@@ -561,7 +564,7 @@ def engagement(
     wrap: int | None = None,
     n_entry: int = 8,
     n_exit: int = 4,
-    fidelity: Literal["lumped", "clearance"] = "lumped",
+    fidelity: Literal["lumped", "clearance"] | AbstractFidelity = "lumped",
     profile: AbstractProfile | None = None,
     span_stiffness: float | None = None,
     model: ChainModel | None = None,
