@@ -44,20 +44,18 @@ def measure(
     film in the clearance chain's joints (None: dry)."""
     n_entry = engagements + DISCARD + 1
     profile = jc.design.profile_of(design)
-    scene = jc.scenes.engagement(
-        chain,
-        teeth,
+    spec = jc.scenes.StrandSpec(
+        chain=chain,
         speed_rpm=rpm,
-        tension=tension,
         fidelity=fidelity,
-        profile=profile,
+        sprocket=jc.scenes.SprocketSpec(teeth, profile=profile, load=None),
+        tension=tension,
         n_entry=n_entry,
-        model=jc.scenes.ChainModel(
-            elongation=wear,
-            lubrication=lubrication if fidelity == "clearance" else None,
-            cushion=getattr(design, "cushion", None),
-        ),
+        elongation=wear,
+        lubrication=lubrication if fidelity == "clearance" else None,
+        cushion=getattr(design, "cushion", None),
     )
+    scene = spec.build()
     return jc.design.engagement_sample(scene, discard=DISCARD, steps_per_period=STEPS_PER_PERIOD)
 
 

@@ -244,53 +244,46 @@ class Problem:
     objective: ProfileObjective | None = None
     baselines: dict = field(default_factory=dict)
 
-    def build(
+    def spec(
         self,
         design,
         speed_factor: float = 1.0,
         roller_contact=None,
         joint_friction=jc.scenes.JOINT_FRICTION,
         wear: float = 0.0,
-    ):
-        """The settled scene of ``design`` (a tooth profile, or a
+    ) -> jc.scenes.StrandSpec | jc.scenes.DriveSpec:
+        """The scene of ``design`` (a tooth profile, or a
         :class:`~jaxchain.design.SprocketDesign`: its tooth and its cushion ring) at one
-        operating point."""
+        operating point, as data: the meshing strand's :class:`~jaxchain.scenes.StrandSpec`
+        or the drive's :class:`~jaxchain.scenes.DriveSpec` (``spec.replace(...)`` for
+        another point; :meth:`build` builds it)."""
         s = self.settings
         profile, cushion = jc.design.profile_of(design), getattr(design, "cushion", None)
-        rpm = s.speed_rpm * speed_factor
+        model = dict(
+            chain=self.chain,
+            speed_rpm=s.speed_rpm * speed_factor,
+            fidelity=s.fidelity,
+            roller_contact=roller_contact,
+            joint_friction=joint_friction,
+        )
+        driver = jc.scenes.SprocketSpec(s.teeth, profile=profile, load=None, cushion=cushion)
         if s.scene == "engagement":
             # the window is set by the slowest member; a faster one meshes more rollers
             n_entry = math.ceil(s.periods * max(s.ensemble) / min(s.ensemble)) + 1
-            return jc.scenes.engagement(
-                self.chain,
-                s.teeth,
-                speed_rpm=rpm,
-                tension=s.load,
-                fidelity=s.fidelity,
-                profile=profile,
-                n_entry=n_entry,
-                model=jc.scenes.ChainModel(
-                    roller_contact=roller_contact,
-                    joint_friction=joint_friction,
-                    elongation=wear,
-                    cushion=cushion,
-                ),
+            return jc.scenes.StrandSpec(
+                sprocket=driver, tension=s.load, n_entry=n_entry, elongation=wear, **model
             )
         driven = jc.ToothProfile.iso606(self.chain, s.driven_teeth, "mid")
-        return jc.scenes.drive(
-            self.chain,
-            (s.teeth, s.driven_teeth),
-            speed_rpm=rpm,
-            load_torque=s.load,
+        return jc.scenes.DriveSpec(
+            sprockets=(driver, jc.scenes.SprocketSpec(s.driven_teeth, profile=driven, load=s.load)),
             pretension=s.pretension,
-            fidelity=s.fidelity,
-            profiles=(profile, driven),
-            model=jc.scenes.ChainModel(
-                roller_contact=roller_contact,
-                joint_friction=joint_friction,
-                cushion=(cushion, None),
-            ),
+            **model,
         )
+
+    def build(self, design, *args, **kwargs):
+        """The settled scene of ``design`` at one operating point (:meth:`spec`'s
+        arguments), built from its spec."""
+        return self.spec(design, *args, **kwargs).build()
 
     @property
     def take_up(self) -> float:

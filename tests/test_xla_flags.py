@@ -6,7 +6,15 @@ from pathlib import Path
 import pytest
 from xla_flags import worker_core
 
-from optimize.xla_flags import CACHE_SIZE, FLAG, MEASURED, fast_compile, use_user_cache
+from optimize.xla_flags import (
+    CACHE_SIZE,
+    FLAG,
+    MEASURED,
+    fast_compile,
+    prune_cache,
+    use_user_cache,
+    user_cache,
+)
 
 
 def test_compile_flag_only_where_measured():
@@ -22,18 +30,34 @@ def test_compile_flag_only_where_measured():
     assert not fast_compile(other, (99, 0)) and "XLA_FLAGS" not in other
 
 
-def test_the_caches_are_the_users_unless_set():
+def test_the_caches_are_the_users_unless_set(tmp_path):
     """The compilation cache (and the program store inside it) is per user, not per
     checkout: $JAXCHAIN_CACHE, else $XDG_CACHE_HOME/jaxchain, else ~/.cache/jaxchain; a
-    folder set in JAX_COMPILATION_CACHE_DIR stands, and the size bound is set once."""
-    env = {"XDG_CACHE_HOME": "/x/cache"}
-    assert use_user_cache(env) == "/x/cache/jaxchain"
-    assert env["JAX_COMPILATION_CACHE_MAX_SIZE"] == str(CACHE_SIZE) == str(4 << 30)
-    assert use_user_cache({"JAXCHAIN_CACHE": "/mine", "XDG_CACHE_HOME": "/x"}) == "/mine"
-    home = use_user_cache({})
-    assert home == str(Path.home() / ".cache" / "jaxchain")
-    chosen = {"JAX_COMPILATION_CACHE_DIR": "/here", "JAX_COMPILATION_CACHE_MAX_SIZE": "-1"}
-    assert use_user_cache(chosen) == "/here" and chosen["JAX_COMPILATION_CACHE_MAX_SIZE"] == "-1"
+    folder set in JAX_COMPILATION_CACHE_DIR stands."""
+    env = {"XDG_CACHE_HOME": str(tmp_path / "x")}
+    assert use_user_cache(env) == str(tmp_path / "x" / "jaxchain")
+    assert env["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "x" / "jaxchain")
+    assert use_user_cache({"JAXCHAIN_CACHE": str(tmp_path / "mine")}) == str(tmp_path / "mine")
+    assert user_cache({}) == Path.home() / ".cache" / "jaxchain"
+    chosen = {"JAX_COMPILATION_CACHE_DIR": str(tmp_path / "here")}
+    assert use_user_cache(chosen) == str(tmp_path / "here")
+
+
+def test_the_cache_is_pruned_longest_written_first(tmp_path):
+    """Over its bound, the compiled programs written longest ago go first, down to three
+    quarters of the bound; under it, nothing goes; the program store is not XLA's."""
+    import os
+
+    for k in range(10):  # 10 entries of 100 bytes, entry 0 written first
+        entry = tmp_path / f"jit_f-{k}-cache"
+        entry.write_bytes(b"x" * 100)
+        os.utime(entry, (1000.0 + k, 1000.0 + k))
+    (tmp_path / "jaxchain-programs").mkdir()
+    assert prune_cache(tmp_path, max_bytes=1000) == 0  # at the bound: kept
+    assert prune_cache(tmp_path, max_bytes=800) == 400  # down to 600 bytes
+    left = sorted(int(p.name.split("-")[1]) for p in tmp_path.glob("*-cache"))
+    assert left == [4, 5, 6, 7, 8, 9] and (tmp_path / "jaxchain-programs").is_dir()
+    assert CACHE_SIZE == 4 << 30
 
 
 def test_each_worker_its_own_core_when_there_are_enough():

@@ -282,19 +282,24 @@ def chain_bodies(
     )  # fmt: skip
 
 
+def _along(chain: ChainSpec, rollers, velocities, closed: bool):
+    """What both chains count along their rollers: the rollers' centres and velocities as
+    arrays, their count n, the links' count and indices, a bush chain's bushes' links."""
+    rollers = np.asarray(rollers, dtype=float)
+    n = len(rollers)
+    n_links = n if closed else n - 1
+    bush_link = None if chain.has_roller else _bush_link(n, closed)
+    return rollers, np.asarray(velocities, float), n, n_links, np.arange(n_links), bush_link
+
+
 def _lumped_bodies(
     chain, rollers, velocities, *, closed, link_load, damping_ratio, joint_friction
 ) -> ChainBodies:
     """:class:`Lumped`'s bodies: point masses on spring-damper links."""
-    rollers = np.asarray(rollers, dtype=float)
-    velocities = np.asarray(velocities, dtype=float)
-    n = len(rollers)
+    rollers, velocities, n, n_links, idx, bush_link = _along(chain, rollers, velocities, closed)
     p = chain.pitch
-    n_links = n if closed else n - 1
-    idx = np.arange(n_links)
     nxt = (idx + 1) % n
     zero2 = np.zeros((n_links, 2))
-    bush_link = None if chain.has_roller else _bush_link(n, closed)
     m = chain.roller_mass + 0.5 * (chain.roller_link_mass + chain.pin_link_mass)
     mass = np.full(n, m)
     if not closed:  # end rollers carry only half of one link
@@ -336,13 +341,8 @@ def _clearance_bodies(
     joint_friction, lubrication,
 ) -> ChainBodies:  # fmt: skip
     """:class:`Clearance`'s bodies: rigid links on clearance joints."""
-    rollers = np.asarray(rollers, dtype=float)
-    velocities = np.asarray(velocities, dtype=float)
-    n = len(rollers)
+    rollers, velocities, n, n_links, idx, bush_link = _along(chain, rollers, velocities, closed)
     p = chain.pitch
-    n_links = n if closed else n - 1
-    idx = np.arange(n_links)
-    bush_link = None if chain.has_roller else _bush_link(n, closed)
     if n % 2:
         raise ValueError(
             f"the clearance model alternates roller and pin links, so it needs an even number "
