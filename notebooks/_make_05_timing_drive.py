@@ -57,8 +57,12 @@ FAST = os.environ.get("JAXCHAIN_FAST") == "1"
     ),
     new_markdown_cell(
         """## 1. The drive
-`jc.scenes.drive` takes one tooth count and one axis per sprocket, in the order the chain
-passes them as one counter-clockwise loop; the first drives. Span j runs from sprocket j to
+The drive is described as data, a `jc.scenes.DriveSpec`: one `SprocketSpec` per sprocket
+(its teeth, its axis, its load), in the order the chain passes them as one
+counter-clockwise loop; the first drives. `spec.build()` gives the scene (what
+`jc.scenes.drive(chain, teeth=..., centres=..., ...)` gives from the same data as
+keywords), and `spec.replace(...)` or `spec.with_sprocket(k, ...)` the next variant.
+Span j runs from sprocket j to
 sprocket j + 1: span 0 (crank to first cam) leaves the driver, the slack side, and carries
 the tensioner; span 2 (second cam back to the crank) is the tight side and carries the
 guide. The tensioner sets the chain's tension (its span carries `pretension` at rest), so
@@ -71,18 +75,20 @@ the settled start turns the arm until its spring balances the chain."""
 rpm = 3000.0
 revolution = 60 / rpm  # one crank revolution [s]
 start = time.perf_counter()
-timing = jc.scenes.drive(
-    chain,
-    teeth=(21, 42, 42),  # crank, first cam, second cam
-    centres=((0.0, 0.0), (0.05, 0.18), (-0.09, 0.18)),  # [m]
+spec = jc.scenes.DriveSpec(
+    chain=chain,
+    sprockets=(
+        jc.scenes.SprocketSpec(21, centre=(0.0, 0.0), load=None),  # the crank drives
+        jc.scenes.SprocketSpec(42, centre=(0.05, 0.18), load=2.0),  # first cam [m, N·m]
+        jc.scenes.SprocketSpec(42, centre=(-0.09, 0.18), load=2.0),  # second cam
+    ),
     speed_rpm=rpm,
-    load_torque=2.0,  # on each cam [N·m]
     pretension=150.0,  # the tensioner's span at rest [N]
     tensioner=jc.scenes.Tensioner(span=0, shoe_radius=0.12, deflection=0.015, damping=0.02),
     guides=(jc.scenes.Guide(span=2, length=0.12),),
-    # fast mode: the layout as built (settling takes ~10 s)
-    model=jc.scenes.ChainModel(settle=not FAST),
+    settle=not FAST,  # fast mode: the layout as built (settling takes ~10 s)
 )
+timing = spec.build()
 print(
     f"built{'' if FAST else ' and settled'} in {time.perf_counter() - start:.1f} s: {timing.n_links} links"
 )
@@ -282,14 +288,8 @@ from jaxchain.design import DesignSpace, ProfileObjective
 
 law = jc.scenes.roller_law(chain, 0.7, width=3e-6)
 joints = jc.contact.CoulombFriction(coefficient=0.1, slip_velocity=2e-2)
-crank, cam = jc.ToothProfile.iso606(chain, 21, "mid"), jc.ToothProfile.iso606(chain, 42, "mid")
-build = lambda p: jc.scenes.drive(
-    chain, teeth=(21, 42, 42), centres=((0.0, 0.0), (0.05, 0.18), (-0.09, 0.18)),
-    speed_rpm=rpm, load_torque=2.0, pretension=150.0,
-    tensioner=jc.scenes.Tensioner(span=0, shoe_radius=0.12, deflection=0.015, damping=0.02),
-    guides=(jc.scenes.Guide(span=2, length=0.12),),
-    profiles=(crank, p, cam), model=jc.scenes.ChainModel(roller_contact=law, joint_friction=joints),
-)
+design = spec.replace(settle=True, roller_contact=law, joint_friction=joints)
+build = lambda p: design.with_sprocket(1, profile=p).build()  # the first cam's tooth
 objective = ProfileObjective(
     DesignSpace.iso606(chain, 42), build, t1=1e-4, temperature=20.0, reference=300.0,
     sprocket=1, dt=1e-6,
