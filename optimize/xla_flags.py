@@ -77,9 +77,10 @@ def prune_cache(folder: Path, max_bytes: int = CACHE_SIZE) -> int:
     """Remove XLA's compiled programs from ``folder``, the longest written first, until
     they take three quarters of ``max_bytes``, when they take more than ``max_bytes``; a
     program removed and needed again is compiled and written anew. (JAX's own bound,
-    ``jax_compilation_cache_max_size``, rescans the folder at every write: measured, the
-    default test run from an empty cache spent 90 s more in it.) Returns the bytes
-    removed."""
+    ``jax_compilation_cache_max_size``, rescans the folder, every entry's size and access
+    time, at every write: the default test run from an empty cache took 436 s with it
+    against 386 s without, on a 2-core CPU, the slower run beside light other work.)
+    Returns the bytes removed."""
     try:
         entries = [(e.stat().st_mtime, e.stat().st_size, e) for e in folder.glob("*-cache")]
     except OSError:
