@@ -9,53 +9,7 @@ long-run mean peak they should estimate.
 
 Writes ``benchmarks/results/clearance_gradient.json`` and ``clearance_gradient.png``.
 
-**Scene.** The engagement strand of the source paper's model: 08B on an 18-tooth driver
-at 1250 rpm (tooth period P = 2.67 ms), 1000 N entry tension,
-``jc.scenes.engagement(..., fidelity="clearance")`` (rigid links on pin/bush clearance
-joints, each roller on its own bush/roller joint, Dahl joint friction, the nominal 10 nm
-contact onsets), settled start. The tooth is the ISO 606 mid form at u = 0 of a design
-space over two of its parameters, each across its ISO 606 range through the space's
-sigmoid (``DesignSpace.select``): u₀ the seating radius (35 µm per unit u at u = 0), u₁
-the flank radius (3.5 mm per unit u). Compared with the lumped chain (its default joint
-friction) and with the clearance chain with wide contact onsets (roller/tooth 3 µm, the
-design law; pin/bush and bush/roller 1 µm).
-
-**Gradients.** Forward mode (``diffrax.ForwardMode``, one tangent per coordinate: what
-``ProfileObjective(gradient="auto")`` uses up to four coordinates) through fixed-step
-Tsit5 solves (``simulate(n_steps=...)``, a smooth discrete map), against central
-differences of the same solves at several steps h in u. From the settled start the
-profile is swapped in and the start resettled to first order (``jc.scenes.resettle``, as
-``ProfileObjective`` does; in the clearance chain that step leaves its linear range at
-|Δu| ≈ 1e-3, part 0); the restarted windows of part 3 hold their (dynamic) start.
-
-0. **Statics.** ``jc.scenes.resettle`` with the settled scene's Jacobian: the start's
-   displacement against ±h.
-1. **Horizon.** One solve from the settled start to H_max gives, at each horizon
-   H = k + 0.6 periods (k = 0 … ; engagement k meshes at k + 0.02–0.08 P, 0 being the start
-   transient): (a) the sharp peak of engagement k (``EngagementPeaks``), (b) the soft peak
-   (log-mean-exp at 20 N, ``SoftPeak``'s formula on the saved step ends) over the last
-   period [H − 1, H], (c) the mean of the sharp peaks of engagements 2 … k. AD and
-   central differences (h = 1e-3, 1e-4, 1e-5; lumped 1e-3, 1e-4) in both coordinates,
-   every objective at every horizon from the same solves; the state's sensitivity
-   |∂x/∂u₀| (every roller's position) along the solve gives the growth rate.
-2. **Step.** (a) and (b) at 0.6 and 1.6 periods with the fixed step halved and quartered
-   (seating radius; central difference at h = 1e-4).
-3. **Windows from a running chain.** A long adaptive solve at u = 0 saves the whole state
-   (bodies, sprocket, Dahl bristles; a force element of this study that only reports it)
-   every 0.01 P; before each engagement (onset ≥ 1.5 P) a window restarts from the saved
-   state ``lead`` before the onset (time shifted to 0: the strand's guides moved on, the
-   Dahl bristles restored through a friction law of this study) and runs to 0.1 P past
-   the onset: (a) the engagement's sharp peak (``EngagementPeaks(window=0.1)``), (b) the
-   sampled soft peak over the window. All windows in one vmapped solve; AD per window,
-   central differences per window, and the average over windows (the mean per-engagement
-   peak of the held states) by both.
-4. **Ground truth.** The designer's target, d(mean per-engagement peak)/du₀: central
-   difference of long adaptive solves (``simulate``'s default tolerances, settled at each
-   profile) at u₀ = ±2 (ri = 4.313 / 4.423 mm), the engagements with onset ≥ 1.5 P paired
-   by roller (the same place on the strand and side of the roller link), with its 95 %
-   interval (also stratified by link side, roller index parity, and Welch's unpaired);
-   and for the lumped chain in both coordinates, against its pathwise gradient of (c).
-5. **Cost.** Warm wall times of value and value + gradient (two tangents), compile apart.
+Notes: benchmarks/clearance_gradient.md
 """
 
 from __future__ import annotations
@@ -78,11 +32,13 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
+from benchmarks.clearance_tools import clean, solve, timed  # noqa: E402
 from benchmarks.common import finish, header, parse, parser, save_chart  # noqa: E402
+from benchmarks.engagement_stats import CHAIN, TEETH, TENSION, period  # noqa: E402
 from jaxchain.design import DesignSpace  # noqa: E402
 
-CHAIN, Z, RPM, TENSION = "08B", 18, 1250.0, 1000.0
-PERIOD = 60.0 / (RPM * Z)
+RPM = 1250.0
+PERIOD = period(RPM)
 PARAMS = ("seating_radius", "flank_radius")
 DT = 0.5e-6  # the fixed step of parts 1 and 3 [s]
 HS = (1e-3, 1e-4, 1e-5)  # central-difference steps in u (settled start)
@@ -90,7 +46,6 @@ TEMPERATURE, REFERENCE = 20.0, 1500.0  # soft peaks [N]
 DISCARD = 1.5  # engagements with onset before this many periods are the start transient
 GRID = 0.01  # state saves of the long runs [periods]
 TRUTH_U = 2.0  # the ground truth's central difference: u = ±TRUTH_U
-MAX_STEPS = 2_000_000
 
 #: the models: fidelity, the roller/tooth and the joints' contact-onset widths [m] (the
 #: clearance chain's nominal laws have 10 nm; set as arrays, so that both clearance models
@@ -107,8 +62,8 @@ MODELS = {
 def space() -> DesignSpace:
     """Seating radius and flank radius of the ISO 606 mid form, each over its ISO range."""
     chain = jc.ChainSpec.iso606(CHAIN)
-    lim = jc.iso606_limits(chain, Z)
-    iso = jc.ToothProfile.iso606(chain, Z, "mid")
+    lim = jc.iso606_limits(chain, TEETH)
+    iso = jc.ToothProfile.iso606(chain, TEETH, "mid")
     return DesignSpace.select(iso, {p: lim[p] for p in PARAMS})
 
 
@@ -130,7 +85,7 @@ def strand(model: str, n_entry: int, u=U0) -> jc.Scene:
         law = jc.scenes.roller_law(jc.ChainSpec.iso606(CHAIN), 0.7, width=roller_width)
     scene = jc.scenes.engagement(
         CHAIN,
-        Z,
+        TEETH,
         speed_rpm=RPM,
         tension=TENSION,
         n_entry=n_entry,
@@ -219,12 +174,6 @@ def restarted(scene: jc.Scene, t: float, q, v, angle, bristle) -> jc.Scene:
     )  # fmt: skip
 
 
-def _timed(f, *args):
-    t = time.perf_counter()
-    out = jax.block_until_ready(f(*args))
-    return out, time.perf_counter() - t
-
-
 def _np(tree):
     return jax.tree_util.tree_map(np.asarray, tree)
 
@@ -235,10 +184,7 @@ def _forward(raw):
 
     def jvps(u, dirs):
         def one(d):
-            out, tan, aux = jax.jvp(
-                lambda u: raw(u, diffrax.ForwardMode()), (u,), (d,), has_aux=True
-            )
-            return out, tan, aux
+            return jax.jvp(lambda u: raw(u, diffrax.ForwardMode()), (u,), (d,), has_aux=True)
 
         return jax.vmap(one, out_axes=(None, 0, None))(dirs)
 
@@ -320,7 +266,7 @@ def settled_run(
     def jvps(u, dirs):
         return _settled_jvps(u, dirs, *args)
 
-    (out0, (onset, count, result)), first_value = _timed(value, U0)
+    (out0, (onset, count, result)), first_value = timed(value, U0)
     if jc.result_names(result)[0] != "successful":
         raise RuntimeError(
             f"{model}, dt {dt}: the solve at u = 0 failed: {jc.result_names(result)}"
@@ -355,7 +301,7 @@ def settled_run(
 
     values = _np(objectives(out0))
     dirs = jnp.eye(len(PARAMS))[jnp.asarray(tangents)]
-    (_, tan, _), first_jvp = _timed(jvps, U0, dirs)
+    (_, tan, _), first_jvp = timed(jvps, U0, dirs)
     ad = {}
     for i, p in enumerate(tangents):
         t_in = jax.tree_util.tree_map(lambda a, i=i: a[i], tan)
@@ -364,13 +310,13 @@ def settled_run(
         ad[PARAMS[p]] = {k: np.where(np.isnan(values[k]), np.nan, v) for k, v in _np(t_obj).items()}
     warm_jvp = None
     if timing:
-        _, warm_jvp = _timed(jvps, U0, dirs)
+        _, warm_jvp = timed(jvps, U0, dirs)
     fd, walls = {}, []
     for p in fd_params:
         e = jnp.eye(len(PARAMS))[p]
         for h in hs:
-            (hi, aux_hi), w1 = _timed(value, U0 + h * e)
-            (lo, aux_lo), w2 = _timed(value, U0 - h * e)
+            (hi, aux_hi), w1 = timed(value, U0 + h * e)
+            (lo, aux_lo), w2 = timed(value, U0 - h * e)
             walls += [w1, w2]
             ok = all(jc.result_names(a[2])[0] == "successful" for a in (aux_hi, aux_lo))
             vh, vl = _np(objectives(hi)), _np(objectives(lo))
@@ -431,10 +377,7 @@ def long_run(model: str, u, n_entry: int) -> dict:
     t1 = (n_entry - 0.1) * PERIOD
     grid = np.arange(0.0, t1, GRID * PERIOD)
     obs = jc.observers.EngagementPeaks.for_solve(scene, t1)
-    t = time.perf_counter()
-    sol = jc.simulate(scene, t1, ts=grid, observers=(obs,), max_steps=MAX_STEPS, throw=False)
-    jax.block_until_ready(sol.ts)
-    wall = time.perf_counter() - t
+    sol, wall = solve(scene, t1, (obs,), ts=grid)
     if not sol.ok:
         raise RuntimeError(f"long run {model} at u = {u}: {sol.message}")
     e = jc.engagement_peaks(sol, t_start=DISCARD * PERIOD)
@@ -519,17 +462,17 @@ def windows(model: str, run: dict, lead: float, hs_seat, hs_flank, timing: bool)
     def jvp_all(u, dirs, scenes, rollers):
         return _window_jvp(u, dirs, scenes, rollers, span, n)
 
-    (v0, (count, result)), first_value = _timed(value, U0, scenes, rollers)
+    (v0, (count, result)), first_value = timed(value, U0, scenes, rollers)
     ok0 = np.asarray(jc.result_names(result)) == "successful"
     dirs = jnp.eye(len(PARAMS))
-    (_, tan, _), first_jvp = _timed(jvp_all, U0, dirs, scenes, rollers)
-    warm_jvp = _timed(jvp_all, U0, dirs, scenes, rollers)[1] if timing else None
+    (_, tan, _), first_jvp = timed(jvp_all, U0, dirs, scenes, rollers)
+    warm_jvp = timed(jvp_all, U0, dirs, scenes, rollers)[1] if timing else None
     fd, walls = {}, []
     for p, hs in ((0, hs_seat), (1, hs_flank)):
         e = dirs[p]
         for h in hs:
-            (hi, (_, r_hi)), w1 = _timed(value, U0 + h * e, scenes, rollers)
-            (lo, (_, r_lo)), w2 = _timed(value, U0 - h * e, scenes, rollers)
+            (hi, (_, r_hi)), w1 = timed(value, U0 + h * e, scenes, rollers)
+            (lo, (_, r_lo)), w2 = timed(value, U0 - h * e, scenes, rollers)
             walls += [w1, w2]
             good = (np.asarray(jc.result_names(r_hi)) == "successful") & (
                 np.asarray(jc.result_names(r_lo)) == "successful"
@@ -679,17 +622,6 @@ def truth(model: str, runs: dict, p: int) -> dict:
     }
 
 
-def _clean(x):
-    """``x`` with every non-finite float as None (strict JSON)."""
-    if isinstance(x, dict):
-        return {k: _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 # ---------------------------------------------------------------------- chart
 def _f(x) -> np.ndarray:
     """A result list as floats (None: NaN)."""
@@ -812,7 +744,7 @@ def main(argv=None) -> dict:
     start = time.perf_counter()
     quick = args.quick
     results = header("clearance_gradient", argv) | {
-        "scene": f"{CHAIN}, z = {Z}, {RPM:g} rpm, {TENSION:g} N, engagement strand, settled",
+        "scene": f"{CHAIN}, z = {TEETH}, {RPM:g} rpm, {TENSION:g} N, engagement strand, settled",
         "period_s": PERIOD,
         "parameters": list(PARAMS),
         "u_scale_m_per_u": (np.asarray(SPACE.upper - SPACE.lower) / 4).tolist(),
@@ -850,19 +782,10 @@ def main(argv=None) -> dict:
     results["windows"] = [
         windows("clearance", runs["clearance"], leads[0], seat_hs, flank_hs, True)
     ]
-    if not quick:
-        results["windows"].append(
-            windows(
-                "clearance, wide onsets",
-                runs["clearance, wide onsets"],
-                leads[0],
-                *fewer,
-                timing=False,
-            )  # fmt: skip
-        )
-    results["windows"] += [
-        windows("clearance", runs["clearance"], lead, *fewer, timing=False) for lead in leads[1:]
-    ]
+    # then the wide onsets at the first lead, the nominal model at the other leads
+    others = [(m, leads[0]) for m in runs if m != "clearance"]
+    others += [("clearance", lead) for lead in leads[1:]]
+    results["windows"] += [windows(m, runs[m], lead, *fewer, timing=False) for m, lead in others]
     checkpoint(results, args.out)
 
     # 4. ground truth
@@ -898,14 +821,14 @@ def main(argv=None) -> dict:
         "truth": {m: {k: strip(r) for k, r in d.items()} for m, d in truth_runs.items()},
     }
     results["cost"] = cost(results)
-    out = finish(_clean(results), args.out, "clearance_gradient", chart, start)
+    out = finish(clean(results), args.out, "clearance_gradient", chart, start)
     (args.out / "clearance_gradient.partial.json").unlink(missing_ok=True)
     return out
 
 
 def checkpoint(results: dict, out: Path) -> None:
     """The parts measured so far, kept while the study runs (removed at its end)."""
-    (out / "clearance_gradient.partial.json").write_text(json.dumps(_clean(results), indent=1))
+    (out / "clearance_gradient.partial.json").write_text(json.dumps(clean(results), indent=1))
 
 
 def cost(results: dict) -> dict:

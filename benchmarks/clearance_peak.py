@@ -12,48 +12,7 @@ Writes ``benchmarks/results/clearance_peak.json`` and its figures: ``clearance_p
 ``clearance_peak_rattle.png``, ``clearance_peak_correlations.png`` and
 ``clearance_peak_variants.png``.
 
-The scene: the 08B strand meshing an 18-tooth driver under 1000 N
-(``jc.scenes.engagement(..., fidelity="clearance")``, settled start, Tsit5 at
-``simulate``'s default tolerances), ``n_entry`` rollers on the entry span meshing one per
-tooth period; engagements whose onset falls in the first two tooth periods are discarded
-as the start transient. Each engagement's peak is :class:`jc.observers.EngagementPeaks`'
-(window half a tooth period, threshold 1 N).
-
-**Impact state.** A step observer of this study (:class:`ImpactStates`, public API only)
-reads every accepted step's end, finds each roller's first crossing of the 1 N threshold
-(the engagement's onset, linearly interpolated between step ends, the state there taken
-from the solver's dense interpolant) and records there, per roller:
-
-* (a) its velocity relative to its bush (the bush point of its roller link): the component
-  toward the tooth (along −n, n the tooth's outward normal at the contact) and the
-  magnitude (the rattle);
-* (b) its eccentricity in the bush/roller clearance (offset roller − bush over the radial
-  clearance: along −n and magnitude; > 1 in contact) and that of the pin/bush joint in the
-  same bush (bush − pin over the pin clearance);
-* (c) its spin rate (absolute, and relative to its roller link);
-* (d) its approach speed toward the tooth surface, the classical impact speed
-  (= the bush point's approach + the rattle along −n, exactly).
-
-Each engagement bounces: the roller touches, leaves and touches again within the window.
-The observer also counts the contacts (threshold crossings) in the window, records the
-same quantities at the start of the contact in which the peak falls, and at the step end
-of the largest force (the bush/roller and pin/bush joint forces there).
-
-**Statistics.** At 1250 rpm (``--speeds`` adds operating points; the tooth is the
-builder's ISO 606 mid form), ``--n-entry 35``: 33 engagements per variant. Pearson and
-Spearman correlations (with n and p) of the peak with each quantity, over all engagements
-and within each side of the roller link (the first roller of a roller link to mesh, its
-bush joined by a pin link to the roller seated before, or the second, on a link already
-seated at its other bush); least squares of the peak on the link (side, bush approach
-speed), on the rattle (relative velocity, eccentricity, spin), and on both, with the F
-test of the rattle added to the link; the peak over the approach speed (an impact's
-peak per unit speed). Then controlled variants on the same operating point: the default
-(Dahl joint friction, ``jc.scenes.CLEARANCE_JOINT_FRICTION``), frictionless joints, each
-roller fixed to its bush (``rollers_on_bush="lumped"``: no rattle) with and without
-friction, and the lumped chain; for each the per-engagement peak distribution
-(``jc.peak_statistics``: n, mean, p95, max, 95 % interval on the mean) and, for pairs that
-switch one piece of physics off, the difference (``jc.compare_peaks``: Welch 95 %
-interval).
+Notes: benchmarks/clearance_peak.md
 """
 
 from __future__ import annotations
@@ -73,12 +32,11 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import finish, header, modelled, parse, parser, save_chart  # noqa: E402
+from benchmarks.clearance_tools import clean, solve, timed  # noqa: E402
+from benchmarks.common import finish, header, parse, parser, save_chart  # noqa: E402
+from benchmarks.engagement_stats import CHAIN, DISCARD, TEETH, TENSION, period, strand  # noqa: E402
 
-CHAIN, TEETH, TENSION = "08B", 18, 1000.0
 THRESHOLD, WINDOW = 1.0, 0.5  # EngagementPeaks' defaults [N], [tooth periods]
-DISCARD = 2  # tooth periods of start transient
-MAX_STEPS = 2_000_000
 
 #: variant -> engagement() keywords (the default joint friction unless None is given)
 VARIANTS = {
@@ -148,16 +106,6 @@ CANDIDATES = (
     ("at_max", "bush_force", "bush/roller joint force at the peak [N]"),
     ("at_max", "pin_force", "pin/bush joint force at the peak [N]"),
 )
-
-
-def period(rpm: float) -> float:
-    return 60.0 / (TEETH * rpm)
-
-
-def strand(rpm: float, n_entry: int, **variant):
-    return jc.scenes.engagement(
-        CHAIN, TEETH, **modelled(speed_rpm=rpm, tension=TENSION, n_entry=n_entry, **variant)
-    )
 
 
 # ------------------------------------------------------------------- per-roller geometry
@@ -378,19 +326,14 @@ class ImpactStates(jc.observers.AbstractStepObserver):
 def run(rpm: float, n_entry: int, variant: dict) -> dict:
     """One solve of the strand to its horizon with both observers; the engagements after
     the start transient with their peaks and impact records."""
-    t = time.perf_counter()
-    sc = strand(rpm, n_entry, **variant)
-    statics_s = time.perf_counter() - t
+    sc, statics_s = timed(strand, rpm, n_entry, **variant)
     per = period(rpm)
     t1 = float(sc.horizon)
     obs = (
         jc.observers.EngagementPeaks(window=WINDOW, threshold=THRESHOLD),
         ImpactStates(roller_geometry(sc), THRESHOLD, WINDOW),
     )
-    t = time.perf_counter()
-    sol = jc.simulate(sc, t1, n_save=2, throw=False, max_steps=MAX_STEPS, observers=obs)
-    jax.block_until_ready(sol.peak_contact_force)
-    wall = time.perf_counter() - t
+    sol, wall = solve(sc, t1, obs, n_save=2)
     row = {
         "ok": bool(sol.ok),
         "result": sol.result_name,
@@ -447,7 +390,7 @@ def run(rpm: float, n_entry: int, variant: dict) -> dict:
 
 def listed(a) -> list:
     """A JSON list, NaN as null."""
-    return [float(x) if np.isfinite(x) else None for x in np.asarray(a, dtype=float)]
+    return clean(np.asarray(a, dtype=float).tolist())
 
 
 def impedance(by: dict) -> dict:
@@ -646,13 +589,6 @@ def correlations(runs: dict, variant: str) -> dict:
 
 
 # ---------------------------------------------------------------------------------- chart
-#: the figures :func:`chart` writes beside ``path`` (``clearance_peak.png`` itself: what
-#: sets the peak), by the suffix of their name
-FIGURES = {
-    "rattle": "the rattle at onset against the peak, by link side (default variant)",
-    "correlations": "Spearman ρ of every candidate with the peak",
-    "variants": "the variants' peak distributions and where their scatter comes from",
-}
 #: the 2×2 of :func:`_chart_link`: (joint friction on/off) × (roller on its bush joint/fixed)
 GRID = (
     (DEFAULT, "roller fixed to bush"),
@@ -1034,9 +970,11 @@ def _chart_variants(results: dict, path) -> None:
 
 def chart(results: dict, path) -> None:
     """``path`` (``clearance_peak.png``): the peak against the bush point's approach speed
-    by link side, friction on/off × roller on its joint/fixed; and beside it the figures of
-    :data:`FIGURES`: ``clearance_peak_rattle.png``, ``_correlations.png``,
-    ``_variants.png``."""
+    by link side, friction on/off × roller on its joint/fixed; and beside it
+    ``clearance_peak_rattle.png`` (the rattle at onset against the peak, by link side),
+    ``_correlations.png`` (Spearman ρ of every candidate with the peak) and
+    ``_variants.png`` (the variants' peak distributions and where their scatter comes
+    from)."""
     import matplotlib.pyplot as plt
 
     with plt.rc_context(STYLE):

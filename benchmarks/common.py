@@ -269,3 +269,64 @@ def modelled(**kwargs) -> dict:
         model = kwargs.pop("model", None) or jc.scenes.ChainModel()
         kwargs["model"] = model.replace(**fields)
     return kwargs
+
+
+# ------------------------------------------------------------------ timed solves, charts
+def timed_solve(scene, t1: float, **kw):
+    """A solve of ``scene`` over ``t1`` (``throw=False``), its wall time and this process's
+    CPU time (all threads) [s]."""
+    import jax
+
+    import jaxchain as jc
+
+    t, c = time.perf_counter(), time.process_time()
+    sol = jc.simulate(scene, t1, throw=False, **kw)
+    jax.block_until_ready(sol.peak_contact_force)
+    return sol, time.perf_counter() - t, time.process_time() - c
+
+
+def compile_time(scene, t1: float = 2e-5) -> tuple[float, float]:
+    """Compile time of ``simulate`` on ``scene``: a first call over ``t1`` (3 saves) less
+    a warm one, in wall and in CPU time [s]."""
+    _, cold, cold_cpu = timed_solve(scene, t1, n_save=3)
+    _, warm, warm_cpu = timed_solve(scene, t1, n_save=3)
+    return cold - warm, cold_cpu - warm_cpu
+
+
+def probe_drive(n_links: int, fidelity: str = "lumped"):
+    """The compile probes' drive: 08B, 18/36 teeth, ``n_links`` links, frictionless joints
+    (:data:`FRICTIONLESS`), started from its layout (not settled)."""
+    import jaxchain as jc
+
+    return jc.scenes.drive(
+        "08B",
+        **modelled(
+            teeth=(18, 36),
+            n_links=n_links,
+            fidelity=fidelity,
+            **FRICTIONLESS,
+            model=jc.scenes.ChainModel(settle=False),
+        ),
+    )
+
+
+def figure(*args, **kwargs):
+    """``plt.subplots(*args, **kwargs)`` on matplotlib's file backend (Agg)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(*args, **kwargs)
+
+
+def write_chart(fig, path: Path, title: str | None = None, **title_kw) -> None:
+    """Title ``fig`` with ``title`` (if given; ``title_kw``: ``suptitle``'s keywords), lay
+    it out, write it to ``path`` at 120 dpi, close it."""
+    import matplotlib.pyplot as plt
+
+    if title is not None:
+        fig.suptitle(title, **title_kw)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

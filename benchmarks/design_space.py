@@ -1,50 +1,16 @@
-"""Design-space study: how low can the *re-measured* peak go inside the ISO 606 box?
+"""Design-space study: how low can the *re-measured* peak go inside the ISO 606 box? The
+ISO forms, a main-job Adam optimum, the box's corners, a Sobol sample and main-effect lines
+are re-measured (``optimize.problem.remeasure``) beside the design objective; the best also
+under the second law, past the box and on a longer entry strand.
 
     python -m benchmarks.design_space            # full study (~74 designs, 3 speeds)
     python -m benchmarks.design_space --quick    # smoke run: 1 speed, ~13 designs
+    python -m benchmarks.design_space --adam-results PATH   # that main-job run's optimum
 
 Writes ``benchmarks/results/design_space.json`` (rewritten after every design, so an
 interrupted run keeps what it measured) and ``design_space.png``.
 
-Problem: the main job's ISO problem (``optimize.problem.make_problem(Settings(problem=
-"iso", ensemble=(0.9, 1.0, 1.1), wear=(0.0,)))``: 08B, z = 18 engagement, 1000 rpm, an
-unworn chain); ``--quick`` keeps only the speed factor 1.0.
-
-Metric (the main job's independent check, called as is): ``remeasure(problem, profile)``
-— fresh settled scene per speed factor, Dopri8 at rtol 1e-9, nominal Johnson law, the
-sharp peak of the roller/tooth force in the window from dense output, worst over the
-speed factors. Per design also the per-speed peaks, and the design objective the optimizer
-sees (``problem.objective.value(u)``: smooth peak, fixed-step Tsit5, widened contact onset,
-mean over the speed factors; reference and temperature set as ``optimize.run`` sets them,
-from the ISO forms' re-measured peaks).
-
-Designs, all inside the box ``DesignSpace.iso606`` (fractions 0..1 of each ISO range of
-seating radius ri, seating angle α, flank radius re, tip diameter da):
-* the three ISO forms (min = fractions (0, 1, 1, 1), max = (1, 0, 0, 0), mid);
-* the Adam optimum of a main-job run in the ISO box (``--adam-results``, default
-  ``results/optimize_iso/results.json``);
-* the 16 corners of the box (``--quick``: the 4 corners in (ri, α), re and da at the min
-  form); corners equal to an ISO form are that form's result;
-* a scrambled Sobol sample (scipy.stats.qmc, fixed seed; 32 points, ``--quick`` 4);
-* main effects: each parameter across its range (7 points) with the others at the min
-  form (``--quick``: ri only, 3 points);
-* the second law (Hertz with a design-independent stiffness, ``remeasure(...,
-  law="hertz")``) on the best designs (3; ``--quick`` 1), the Adam optimum and the ISO
-  min and max forms.
-
-Diagnostics beyond the study proper (same ``remeasure``): the seating angle past the ISO
-maximum (others at the min form; 1.25, 1.5, 2 × the range, i.e. 140°, 145°, 155° for
-z = 18), and the best designs, the Adam optimum and the ISO min/max forms on an entry
-strand 4 rollers longer (``longer_entry``: ``Problem.build`` builds the scene, only its
-``n_entry`` grows), which shows how much of a difference between designs survives a change
-of the scene's truncation. Per member the time of its peak in the window is recorded: a
-peak within 1 % of the window's start or end is an impact the window clips.
-
-Reported: best re-measured reduction against the min form (the better ISO baseline) and
-against the better ISO form under each law, where in the box it sits, Spearman rank
-correlations of the design objective with the re-measured peak, which speed sets the
-worst peak, and the roughness of the main-effect lines (total variation over net change,
-direction changes) of the metric and of the objective.
+Notes: benchmarks/design_space.md
 """
 
 from __future__ import annotations
@@ -66,6 +32,7 @@ import numpy as np  # noqa: E402
 import jaxchain as jc  # noqa: E402
 from benchmarks.common import (  # noqa: E402
     OUT,
+    figure,
     jsonable,
     loadavg,
     machine_info,
@@ -95,30 +62,22 @@ SHORT = {"seating_radius": "ri", "seating_angle": "alpha", "flank_radius": "re",
          "tip_diameter": "da"}  # fmt: skip
 
 
+#: what the study measures: (--quick, full study) for each entry
+PLAN = {
+    "ensemble": ((1.0,), ISO_ENSEMBLE),
+    "corner_params": (("seating_radius", "seating_angle"), NAMES),
+    "sobol": (4, 32),
+    "effect_params": (("seating_radius",), NAMES),
+    "effect_points": (3, 7),
+    "hertz_top": (1, 3),
+    "hertz_extra": (("iso_min",), ("adam", "iso_min", "iso_max")),
+    "beyond_alpha": ((1.5,), (1.25, 1.5, 2.0)),
+    "strand_top": (0, 3),
+}
+
+
 def plan(quick: bool) -> dict:
-    if quick:
-        return dict(
-            ensemble=(1.0,),
-            corner_params=("seating_radius", "seating_angle"),
-            sobol=4,
-            effect_params=("seating_radius",),
-            effect_points=3,
-            hertz_top=1,
-            hertz_extra=("iso_min",),
-            beyond_alpha=(1.5,),
-            strand_top=0,
-        )
-    return dict(
-        ensemble=ISO_ENSEMBLE,
-        corner_params=NAMES,
-        sobol=32,
-        effect_params=NAMES,
-        effect_points=7,
-        hertz_top=3,
-        hertz_extra=("adam", "iso_min", "iso_max"),
-        beyond_alpha=(1.25, 1.5, 2.0),
-        strand_top=3,
-    )
+    return {k: v[0] if quick else v[1] for k, v in PLAN.items()}
 
 
 def settings_for(quick: bool) -> Settings:
@@ -183,6 +142,20 @@ def fraction_of(problem: Problem, profile) -> np.ndarray:
     return (x - lo) / (hi - lo)
 
 
+def moved(base: np.ndarray, name: str, v: float) -> np.ndarray:
+    """``base`` (fractions) with parameter ``name`` at ``v``."""
+    f = base.copy()
+    f[NAMES.index(name)] = v
+    return f
+
+
+def effect_line(base: np.ndarray, name: str, points: int) -> tuple[np.ndarray, list]:
+    """A main-effect line: ``name`` at ``points`` values across its range, the others at
+    ``base``; the values and the fractions."""
+    vs = np.linspace(0.0, 1.0, points)
+    return vs, [moved(base, name, v) for v in vs]
+
+
 # ----------------------------------------------------------------------------- designs
 def design_list(problem: Problem, p: dict, adam: dict | None) -> list[dict]:
     """Every design as {name, group, fraction, u, profile}; ISO forms first (they fix the
@@ -225,28 +198,9 @@ def design_list(problem: Problem, p: dict, adam: dict | None) -> list[dict]:
     for k, f in enumerate(sobol.random(p["sobol"])):
         add(f"sobol_{k:02d}", "sobol", f)
     for name in p["effect_params"]:
-        i = NAMES.index(name)
-        for v in np.linspace(0.0, 1.0, p["effect_points"]):
-            f = base.copy()
-            f[i] = v
+        for v, f in zip(*effect_line(base, name, p["effect_points"]), strict=True):
             add(f"effect_{SHORT[name]}_{v:.3f}", "effect", f)
     return out
-
-
-def effect_lines(problem: Problem, p: dict) -> dict:
-    """Per main-effect parameter: the fractions of its line and the design keys on it."""
-    base = fraction_of(problem, iso_forms(problem)["min"])
-    lines = {}
-    for name in p["effect_params"]:
-        i = NAMES.index(name)
-        vs = np.linspace(0.0, 1.0, p["effect_points"])
-        keys = []
-        for v in vs:
-            f = base.copy()
-            f[i] = v
-            keys.append(key_of(f))
-        lines[name] = (vs, keys)
-    return lines
 
 
 # ----------------------------------------------------------------------------- measure
@@ -290,15 +244,17 @@ def objective(problem: Problem, u) -> dict:
     }
 
 
-def hertz(problem: Problem, d: dict) -> dict:
+def remeasured(problem: Problem, profile, extra: dict | None = None, **law) -> dict:
+    """A check's re-measurement of ``profile`` (``law``: ``remeasure``'s): worst and per
+    speed factor, where each member's peak falls, ``extra`` and the time taken."""
     t = time.perf_counter()
-    m = remeasure(problem, d["profile"], law="hertz")
+    m = remeasure(problem, profile, **law)
     return {
-        "name": d["name"],
         "peak_N": m["peak_N"],
         "member_peaks_N": [r["peak_N"] for r in m["members"]],
         "member_peak_at": [peak_at(problem, r) for r in m["members"]],
         "member_ok": [bool(r["ok"]) for r in m["members"]],
+        **(extra or {}),
         "seconds": time.perf_counter() - t,
         "loadavg": loadavg(),
     }
@@ -384,8 +340,10 @@ def analyse(problem: Problem, rows: list[dict], hz: dict, p: dict) -> dict:
         },
     }
     lines = {}
-    for name, (vs, keys) in effect_lines(problem, p).items():
-        line = [by_key.get(k) for k in keys]
+    min_form = fraction_of(problem, iso_forms(problem)["min"])
+    for name in p["effect_params"]:
+        vs, fractions = effect_line(min_form, name, p["effect_points"])
+        line = [by_key.get(key_of(f)) for f in fractions]
         if any(r is None for r in line):
             continue
         pk = [r["peak_N"] for r in line]
@@ -557,10 +515,8 @@ def main(argv=None) -> dict:
     names = [r["name"] for r in ranked[: p["hertz_top"]]]
     names += [x for x in p["hertz_extra"] if x not in names]
     by_name = {d["name"]: d for d in designs}
-    for x in names:
-        if x not in by_name:
-            continue
-        h = hertz(problem, by_name[x])
+    for x in (n for n in names if n in by_name):
+        h = {"name": x, **remeasured(problem, by_name[x]["profile"], law="hertz")}
         results["hertz"][x] = h
         print(
             f"[hertz] {x:<22s} peak {h['peak_N']:7.1f} N  {h['seconds']:.1f} s "
@@ -575,8 +531,7 @@ def main(argv=None) -> dict:
     base = fraction_of(problem, iso_forms(problem)["min"])
     results["beyond_box"] = []
     for v in p["beyond_alpha"]:
-        f = base.copy()
-        f[NAMES.index("seating_angle")] = v
+        f = moved(base, "seating_angle", v)
         d = dict(name=f"beyond_alpha_{v:.2f}", group="beyond", fraction=f, aliases=[])
         d["profile"] = profile_at(problem, f)
         d["u"] = None
@@ -591,17 +546,9 @@ def main(argv=None) -> dict:
         names += [x for x in ("adam", "iso_min", "iso_max") if x not in names]
         with longer_entry(EXTRA_ENTRY):
             for x in (n for n in names if n in by_name):
-                t = time.perf_counter()
-                m = remeasure(problem, by_name[x]["profile"])
-                results["longer_strand"][x] = {
-                    "peak_N": m["peak_N"],
-                    "member_peaks_N": [r["peak_N"] for r in m["members"]],
-                    "member_peak_at": [peak_at(problem, r) for r in m["members"]],
-                    "member_ok": [bool(r["ok"]) for r in m["members"]],
-                    "default_strand_peak_N": next(r["peak_N"] for r in rows if r["name"] == x),
-                    "seconds": time.perf_counter() - t,
-                    "loadavg": loadavg(),
-                }
+                default = next(r["peak_N"] for r in rows if r["name"] == x)
+                m = remeasured(problem, by_name[x]["profile"], {"default_strand_peak_N": default})
+                results["longer_strand"][x] = m
                 print(f"[strand] {x:<22s} peak {m['peak_N']:7.1f} N", flush=True)
                 save("longer_strand")
         results["longer_strand_extra_entry_rollers"] = EXTRA_ENTRY
@@ -671,15 +618,12 @@ GROUP_STYLE = {
 
 
 def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     a = res["analysis"]
     base = a["baseline_min_form_N"]
     target = a["target_20pct_N"]
-    fig, ax = plt.subplots(2, 3, figsize=(17, 10))
+    fig, ax = figure(2, 3, figsize=(17, 10))
 
     # (a) design objective vs re-measured worst peak
     g = ax[0, 0]
@@ -695,7 +639,6 @@ def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Pat
     g.set_title(f"objective vs re-measured peak (Spearman {rho})")
     g.set_xlabel("design objective (smooth, mean of speeds) [N]")
     g.set_ylabel("re-measured peak, worst speed [N]")
-    g.legend(fontsize=7)
 
     # (b) main effects, relative to the min form
     g = ax[0, 1]
@@ -733,9 +676,7 @@ def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Pat
     g.axhline(-20, color="tab:red", ls="--", lw=1)
     g.axhline(0, color="k", ls=":", lw=1)
     g.set_xlabel("fraction of the ISO range (others at the min form)")
-    g.set_ylabel("change vs min form [%]")
-    g.set_title("main effects through the min form")
-    g.legend(fontsize=7, ncol=2)
+    g.set(ylabel="change vs min form [%]", title="main effects through the min form")
 
     # (c) per-speed peaks, designs sorted by the worst
     g = ax[0, 2]
@@ -744,10 +685,8 @@ def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Pat
         g.plot([r["member_peaks_N"][k] for r in order], "o", ms=3, label=f"speed × {f}")
     g.plot([r["peak_N"] for r in order], "k-", lw=1, label="worst (the metric)")
     g.axhline(base, color="k", ls=":", lw=1)
-    g.set_xlabel("design, sorted by re-measured worst peak")
-    g.set_ylabel("sharp peak [N]")
+    g.set(xlabel="design, sorted by re-measured worst peak", ylabel="sharp peak [N]")
     g.set_title("per-speed re-measured peaks")
-    g.legend(fontsize=7)
 
     # (d) reductions of the best designs, both laws
     g = ax[1, 0]
@@ -769,21 +708,17 @@ def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Pat
     g.axvline(20, color="tab:red", ls="--", lw=1, label="goal 20 %")
     g.axvline(0, color="k", lw=0.5)
     g.invert_yaxis()
-    g.set_xlabel("reduction vs ISO min form [%]")
-    g.set_title("best designs in the box")
-    g.legend(fontsize=7)
+    g.set(xlabel="reduction vs ISO min form [%]", title="best designs in the box")
 
     # (e) force histories at the worst speed
     g = ax[1, 1]
     for name, c in [("iso_min", "k"), (a["best"]["name"], "tab:green"), ("adam", "tab:red")]:
         tr = traces.get(name)
-        if tr is not None and name in traces:
+        if tr is not None:
             g.plot(tr["ts"] * 1e3, tr["force"], color=c, lw=1,
                    label=f"{name} (× {tr['speed_factor']}): {tr['peak_N']:.0f} N")  # fmt: skip
-    g.set_xlabel("time [ms]")
-    g.set_ylabel("largest roller/tooth force [N]")
+    g.set(xlabel="time [ms]", ylabel="largest roller/tooth force [N]")
     g.set_title("re-measured force, worst speed of each design")
-    g.legend(fontsize=7)
 
     # (f) outlines
     g = ax[1, 2]
@@ -794,11 +729,9 @@ def chart(problem: Problem, res: dict, rows: list[dict], traces: dict, path: Pat
     best = problem.space.profile(jnp.asarray(a["best"]["u"]))
     xy = best.outline(n=80)
     g.plot(xy[:, 0] * 1e3, xy[:, 1] * 1e3, color="tab:green", lw=2, label=a["best"]["name"])
-    g.set_aspect("equal")
-    g.set_xlabel("x [mm]")
-    g.set_ylabel("y [mm]")
-    g.set_title("tooth gap")
-    g.legend(fontsize=7)
+    g.set(aspect="equal", xlabel="x [mm]", ylabel="y [mm]", title="tooth gap")
+    for g in ax.flat:  # each panel's legend, after its artists
+        g.legend(fontsize=7, ncol=2 if g is ax[0, 1] else 1)
 
     m = res["machine"]
     fig.suptitle(

@@ -1,32 +1,11 @@
-"""How far a gradient through the solve reaches on a closed drive: the design gradient's
-size against the solve's horizon, and whether the mesh-order objective is differentiable
-over the window that resolves rotation orders.
+"""How far a gradient through the solve reaches on a closed drive: the design gradient's size
+against the horizon, and whether the mesh-order objective is differentiable over its window.
 
     python -m benchmarks.drive_gradient            # full study (~20 min on 2 cores)
     python -m benchmarks.drive_gradient --quick    # 2 and 4 tooth periods, drive only
 
 Writes ``benchmarks/results/drive_gradient.json`` and ``drive_gradient.png``.
-
-Scene: the ``quiet_drive`` study's closed drive (08B, 60 links, an 18-tooth driver and a
-36-tooth ISO 606 minimum-form driven sprocket, 1000 rpm, 40 N·m, 300 N pretension, settled
-start) with the main job's design model (contact onset widened to 3 µm, joint friction's
-creep band to 20 mm/s). Design space: a per-tooth pattern of 36 coordinates around the
-uniform ISO minimum form (free-form, two arcs per flank, ISO's smallest tip circle): each
-gap's seating radius ±20 µm and clockwise seat angle ±0.05 rad, at the pattern's middle
-(every tooth alike, u = 0).
-
-1. **Gradient against horizon.** The design objective of ``python -m optimize`` (soft
-   peak of the roller/tooth force sampled 8 times per fixed 4 µs Tsit5 step) over the last
-   tooth period of solves of 2, 4 and 8 tooth periods; |∇J| at u = 0. At 2 and 4 periods
-   also at 2 and 1 µs (does it converge as the step shrinks?), at 4 periods with
-   frictionless joints and with a 100 mm/s creep band. For contrast the main job's
-   engagement scene (the same chain and driver meshing a settled strand) over the same
-   horizons.
-2. **The mesh-order objective over its window.** ``Penalized(BandLevel.mesh_band(18,
-   0.2, 1.18) of the driven sprocket's bearing force, soft peak ≤ 3000 N)`` over 1.2
-   driver revolutions (the shortest window that still separates neighbouring orders
-   roughly): |∇J| by reverse mode, and central differences of the value along one random
-   direction at steps h = 1e-1 … 1e-4.
+Notes: benchmarks/drive_gradient.md
 """
 
 from __future__ import annotations
@@ -44,6 +23,7 @@ from benchmarks.common import (
     DRIVE_PRETENSION as PRETENSION,
     DRIVE_Z as Z,
     DRIVE_Z_DRIVEN as Z_DRIVEN,
+    figure,
     finish,
     header,
     parse,
@@ -66,8 +46,7 @@ def _model():
     import jaxchain as jc
 
     chain = jc.ChainSpec.iso606(CHAIN)
-    law = jc.scenes.roller_law(chain, 0.7, width=3e-6)
-    return chain, law
+    return chain, jc.scenes.roller_law(chain, 0.7, width=3e-6)
 
 
 def joints(slip):
@@ -195,16 +174,16 @@ def band_probe(revs: float = REVS, steps=STEPS_H, seed: int = 0) -> dict:
     )
     u = jnp.zeros(space.size)
     scenes = obj.scenes(u)
-    jax.block_until_ready(obj.value_on(u, scenes)[0])  # compiles; timed below, warm
-    t = time.perf_counter()
-    value, _ = obj.value_on(u, scenes)
-    jax.block_until_ready(value)
-    t_value = time.perf_counter() - t
-    jax.block_until_ready(obj.value_and_grad_on(u, scenes)[1])  # compiles
-    t = time.perf_counter()
-    value, grad, members = obj.value_and_grad_on(u, scenes)
-    jax.block_until_ready(grad)
-    t_grad = time.perf_counter() - t
+
+    def warm(call, i):  # compile, then time a warm call (done when its output ``i`` is)
+        jax.block_until_ready(call()[i])
+        t = time.perf_counter()
+        out = call()
+        jax.block_until_ready(out[i])
+        return out, time.perf_counter() - t
+
+    (value, _), t_value = warm(lambda: obj.value_on(u, scenes), 0)
+    (value, grad, members), t_grad = warm(lambda: obj.value_and_grad_on(u, scenes), 1)
     d = np.random.default_rng(seed).normal(size=space.size)
     d /= np.linalg.norm(d)
     fd = []
@@ -248,13 +227,8 @@ def growth(rows: list[dict], scene: str) -> float | None:
 
 
 def chart(results: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     band = results.get("band")
-    fig, axes = plt.subplots(1, 2 if band else 1, figsize=(12 if band else 6.5, 4.5))
+    fig, axes = figure(1, 2 if band else 1, figsize=(12 if band else 6.5, 4.5))
     ax = axes[0] if band else axes
     rows = results["rows"]
     styles = {
@@ -277,8 +251,6 @@ def chart(results: dict, path: Path) -> None:
     ax.set_xlabel("solve horizon [tooth periods]")
     ax.set_ylabel("|∇J| of the soft peak [N per unit u]")
     ax.set_title("Design gradient against horizon (36 per-gap coordinates)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
     if band:
         ax = axes[1]
         h = [f["h"] for f in band["finite_differences"]]
@@ -288,6 +260,7 @@ def chart(results: dict, path: Path) -> None:
         ax.set_xlabel("finite-difference step h (u units)")
         ax.set_ylabel("|dJ/dh| along a random direction [dB per unit u]")
         ax.set_title(f"Band level over {band['revolutions']} revolutions")
+    for ax in np.atleast_1d(axes):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
     save_chart(fig, results, path)
@@ -305,10 +278,7 @@ def main(argv=None) -> dict:
     band = None
     if not args.quick:
         rows += [gradient_row("drive", n, dt=dt) for n in (2, 4) for dt in STEPS[1:]]
-        rows += [
-            gradient_row("drive", 4, slip=None),
-            gradient_row("drive", 4, slip=0.1),
-        ]
+        rows += [gradient_row("drive", 4, slip=slip) for slip in (None, 0.1)]
         rows += [gradient_row("engagement", n) for n in horizons[:3]]
         band = band_probe()
     results = {

@@ -4,37 +4,13 @@ and compile time against the number of sprockets.
     python -m benchmarks.drives            # full study (~25 min on a loaded 2-core CPU)
     python -m benchmarks.drives --quick    # smoke run (CI-sized)
 
-Writes ``benchmarks/results/drives.json`` and ``drives.png``. The machine is shared:
-every timing is stored with the load average read next to it, and every ratio comes from
-runs interleaved in this one process (the least of ``repeats`` warm runs of each scene,
-the scenes taking turns), so both sides of a ratio see the same load.
+Writes ``benchmarks/results/drives.json`` and ``drives.png``.
 
-The timing drive (:data:`TIMING`): 06B chain, 120 links, crank 21 teeth at 3000 rpm, two
-cams of 42 teeth loaded with 2 N·m each, a pivoting-arm :class:`~jaxchain.scenes.Tensioner`
-on the slack span (0, crank to first cam), a straight :class:`~jaxchain.scenes.Guide` on
-the tight span (2, second cam to crank), default joint friction, settled. The two-sprocket
-drives: the same chain, crank and load on a 42-tooth sprocket, 100 links and 120 links
-(the timing drive's count), fixed centres, settled. Measured:
-
-* cost: warm wall time over the same window from the settled start (Tsit5, rtol 1e-6),
-  per crank revolution and per simulated second, steps and µs per step; the timing drive's
-  cost per simulated second over each two-sprocket drive's (goal ≤ 1.5 at the same link
-  count). Beside the wall time, this process's CPU time (all its threads): other jobs on
-  the machine stretch the wall time but barely the CPU time, so its ratios are the
-  steadier ones under load;
-* compile time of ``simulate`` (first call minus a warm call, the persistent compilation
-  cache off, jax's caches cleared between repeats, the least of the repeats; wall and CPU
-  time) for drives
-  of 2, 3 and 5 sprockets of about 120 links without shoes, and for the timing drive with
-  its tensioner and guide (goal: 2 → 3 → 5 within 1.5×);
-* the same in the clearance fidelity (rigid links on pin/bush and bush/roller clearance
-  joints; the tensioner's and guide's shoes act on the rollers there too): cost over a
-  short window, compile 2 → 3 → 5 (full run only).
+Notes: benchmarks/drives.md
 """
 
 from __future__ import annotations
 
-import datetime
 import math
 import os
 import time
@@ -48,11 +24,15 @@ jax.config.update("jax_enable_compilation_cache", False)
 
 import jaxchain as jc  # noqa: E402
 from benchmarks.common import (  # noqa: E402
+    compile_time,
+    figure,
     finish,
-    machine_info,  # noqa: E402
+    header,
     modelled,
     parse,
     parser,
+    timed_solve,
+    write_chart,
 )
 
 CHAIN = "06B"
@@ -102,14 +82,6 @@ def load() -> float:
     return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
 
-def timed(scene, t1: float, **kw):
-    """A solve, its wall time and this process's CPU time (all threads) [s]."""
-    t, c = time.perf_counter(), time.process_time()
-    sol = jc.simulate(scene, t1, throw=False, **kw)
-    jax.block_until_ready(sol.peak_contact_force)
-    return sol, time.perf_counter() - t, time.process_time() - c
-
-
 def cost(names: list[str], fidelity: str, window_rev: float, repeats: int) -> dict:
     """Warm wall time of each scene over ``window_rev`` crank revolutions, the scenes taking
     turns ``repeats`` times; the least of each, and ratios to the two-sprocket drives."""
@@ -118,12 +90,12 @@ def cost(names: list[str], fidelity: str, window_rev: float, repeats: int) -> di
     print(f"  built and settled {len(names)} {fidelity} scenes in {time.perf_counter() - t:.0f} s")
     t1 = window_rev * REV
     for sc in scenes.values():  # compile (the window is traced: a short one will do)
-        timed(sc, 1e-5, n_save=11)
+        timed_solve(sc, 1e-5, n_save=11)
     runs = {n: [] for n in names}
     for rep in range(repeats):
         for n, sc in scenes.items():
             before = load()
-            sol, wall, cpu = timed(sc, t1, n_save=11)
+            sol, wall, cpu = timed_solve(sc, t1, n_save=11)
             runs[n].append(
                 {
                     "wall_s": wall,
@@ -161,20 +133,17 @@ def cost(names: list[str], fidelity: str, window_rev: float, repeats: int) -> di
         }
     out = {"window_rev": window_rev, "repeats": repeats, "rows": rows, "ratios": {}}
     for base in [n for n in names if n.startswith("two_")]:
-        b = rows[base]
-        r = rows["timing"]
-        out["ratios"][f"timing_over_{base}"] = {
+        b, r = rows[base], rows["timing"]
+        q = out["ratios"][f"timing_over_{base}"] = {
             "cost_per_simulated_s": r["wall_per_simulated_s"] / b["wall_per_simulated_s"],
             "cpu_per_simulated_s": r["cpu_per_simulated_s"] / b["cpu_per_simulated_s"],
             "steps": r["steps"] / b["steps"],
             "us_per_step": r["us_per_step"] / b["us_per_step"],
         }
-        q = out["ratios"][f"timing_over_{base}"]
         print(
             f"  {fidelity}: timing / {base}: cost per simulated second ×"
             f"{q['cost_per_simulated_s']:.2f}, CPU time ×{q['cpu_per_simulated_s']:.2f} "
-            f"(steps ×{q['steps']:.2f}, "
-            f"per step ×{q['us_per_step']:.2f})",
+            f"(steps ×{q['steps']:.2f}, per step ×{q['us_per_step']:.2f})",
             flush=True,
         )
     return out
@@ -185,24 +154,17 @@ def compile_times(names: list[str], fidelity: str, repeats: int) -> dict:
     caches cleared before each cold call, the scenes taking turns; the least of each."""
     scenes = {n: build(n, fidelity, settle=False) for n in names}
     # a throwaway compile first: the process's one-off start-up costs stay out of the rows
-    timed(build("two_100", fidelity, settle=False), 2e-5, n_save=3)
+    timed_solve(build("two_100", fidelity, settle=False), 2e-5, n_save=3)
     runs = {n: [] for n in names}
     for rep in range(repeats):
         for n, sc in scenes.items():
             jax.clear_caches()
             before = load()
-            _, cold, cold_cpu = timed(sc, 2e-5, n_save=3)
-            _, warm, warm_cpu = timed(sc, 2e-5, n_save=3)
-            runs[n].append(
-                {
-                    "compile_s": cold - warm,
-                    "compile_cpu_s": cold_cpu - warm_cpu,
-                    "load_before": before,
-                }
-            )
+            wall, cpu = compile_time(sc)
+            runs[n].append({"compile_s": wall, "compile_cpu_s": cpu, "load_before": before})
             print(
-                f"  {fidelity:9s} compile {n:12s} rep {rep}: {cold - warm:5.1f} s "
-                f"(CPU {cold_cpu - warm_cpu:5.1f} s), load {before:.1f}",
+                f"  {fidelity:9s} compile {n:12s} rep {rep}: {wall:5.1f} s "
+                f"(CPU {cpu:5.1f} s), load {before:.1f}",
                 flush=True,
             )
     rows = {
@@ -219,9 +181,8 @@ def compile_times(names: list[str], fidelity: str, repeats: int) -> dict:
     ratios = {}
     for key, suffix in (("compile_s", ""), ("compile_cpu_s", "_cpu")):
         c = {n: r[key] for n, r in rows.items()}
-        ratios["3_over_2" + suffix] = c["sprockets_3"] / c["sprockets_2"]
-        ratios["5_over_2" + suffix] = c["sprockets_5"] / c["sprockets_2"]
-        ratios["5_over_3" + suffix] = c["sprockets_5"] / c["sprockets_3"]
+        for a, b in ((3, 2), (5, 2), (5, 3)):
+            ratios[f"{a}_over_{b}{suffix}"] = c[f"sprockets_{a}"] / c[f"sprockets_{b}"]
         if "timing" in c:
             ratios["timing_over_3" + suffix] = c["timing"] / c["sprockets_3"]
     print(
@@ -237,12 +198,7 @@ def compile_times(names: list[str], fidelity: str, repeats: int) -> dict:
 
 
 def chart(res: dict, path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
+    fig, ax = figure(1, 2, figsize=(12, 4.2))
     colours = {"lumped": "tab:blue", "clearance": "tab:orange"}
     labels, values, cols, notes = [], [], [], []
     for fid, c in res["cost"].items():
@@ -294,15 +250,9 @@ def chart(res: dict, path) -> None:
     ax[1].set_ylabel("compile time of simulate, CPU [s]")
     ax[1].set_title("compile time against the number of sprockets")
     ax[1].legend(fontsize=8, loc="lower right")
-    fig.suptitle(
-        f"python -m benchmarks.drives{' --quick' if res['quick'] else ''}, {res['date']}, "
-        f"{res['machine']['cpu_count']}-core CPU, load average "
-        f"{res['machine']['loadavg_at_start'][0]:.1f} at start",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    m = res["machine"]
+    title = f"{res['command']}, {res['date']}, {m['cpu_count']}-core CPU, load average "
+    write_chart(fig, path, title + f"{m['loadavg_at_start'][0]:.1f} at start", fontsize=9)
 
 
 def main(argv=None) -> dict:
@@ -311,17 +261,13 @@ def main(argv=None) -> dict:
     quick = args.quick
     res = {
         "study": "drives",
-        "command": "python -m benchmarks.drives" + (" --quick" if quick else ""),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine_info(),
+        **header("drives", ["--quick"] if quick else []),
         "quick": quick,
         "scenes": {
             "chain": CHAIN,
-            **{k: v for k, v in COMMON.items()},
+            **COMMON,
             "timing": {
-                "teeth": TIMING["teeth"],
-                "centres": TIMING["centres"],
-                "n_links": TIMING["n_links"],
+                **{k: TIMING[k] for k in ("teeth", "centres", "n_links")},
                 "tensioner": "Tensioner(span=0, shoe_radius=0.12, damping=0.02)",
                 "guide": "Guide(span=2, length=0.12)",
             },

@@ -3,27 +3,15 @@
     python -m benchmarks.dynamics            # full study (~15 min on 2 cores)
     python -m benchmarks.dynamics --quick    # smoke run (CI-sized)
 
-Writes ``benchmarks/results/dynamics.json`` and ``dynamics.png``. Every ratio printed is
-measured in this one run (machines are shared and noisy: compare ratios, not seconds).
+Writes ``benchmarks/results/dynamics.json`` and ``dynamics.png``.
 
-Measured per case:
-* wall time per simulated driver revolution (warm, i.e. compile excluded), steps, µs/step;
-* µs per vector-field call in a jitted ``fori_loop`` (no dispatch overhead), and the ratio
-  µs/step ÷ (stages × µs per call) — Tsit5 makes 6 new evaluations per step, plus one for
-  the per-step peak-force record;
-* compile time of ``simulate`` (first call minus a warm call) for 50/100/200 links;
-* lumped vs clearance on the same drive (all settled): peak roller force, span tension,
-  cost ratio;
-* the clearance drive (rollers on joints) at Tsit5 rtol 1e-6 / 1e-5 / 1e-4: wall per
-  revolution against the peak force's error relative to rtol 1e-9 (the 60 s target is
-  judged at a setting whose peak is within 2 %).
+Notes: benchmarks/dynamics.md
 """
 
 from __future__ import annotations
 
 import json
 import platform
-import time
 
 import jax
 
@@ -33,22 +21,26 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import FRICTIONLESS, modelled, parse, parser, vf_time  # noqa: E402
+from benchmarks.common import (  # noqa: E402
+    FRICTIONLESS,
+    compile_time,
+    figure,
+    modelled,
+    parse,
+    parser,
+    probe_drive,
+    timed_solve,
+    vf_time,
+    write_chart,
+)
 
 STAGES = 6  # new vector-field evaluations per Tsit5 step (FSAL)
 
 
-def timed_run(scene, t1, **kw):
-    t = time.perf_counter()
-    sol = jc.simulate(scene, t1, throw=False, **kw)
-    jax.block_until_ready(sol.peak_contact_force)
-    return sol, time.perf_counter() - t
-
-
 def case(name, scene, t1, rev):
     """Cold and warm run over t1; per-revolution figures scaled by rev/t1."""
-    _, cold = timed_run(scene, t1, n_save=51)
-    sol, warm = timed_run(scene, t1, n_save=51)
+    _, cold, _ = timed_solve(scene, t1, n_save=51)
+    sol, warm, _ = timed_solve(scene, t1, n_save=51)
     steps = int(sol.stats["num_steps"])
     us_step = warm / max(steps, 1) * 1e6
     vf = vf_time(scene)
@@ -89,21 +81,9 @@ def compile_times(fidelities, links=(50, 100, 200)):
     rows = []
     for fid in fidelities:
         for n in links:
-            sc = jc.scenes.drive(
-                "08B",
-                **modelled(
-                    teeth=(18, 36),
-                    n_links=n,
-                    fidelity=fid,
-                    **FRICTIONLESS,
-                    model=jc.scenes.ChainModel(settle=False),
-                ),
-            )
-            t1 = 20e-6
-            _, cold = timed_run(sc, t1, n_save=3)
-            _, warm = timed_run(sc, t1, n_save=3)
-            rows.append({"fidelity": fid, "links": n, "compile_s": cold - warm})
-            print(f"  compile {fid:10s} {n:4d} links: {cold - warm:6.1f} s")
+            compile_s, _ = compile_time(probe_drive(n, fid))
+            rows.append({"fidelity": fid, "links": n, "compile_s": compile_s})
+            print(f"  compile {fid:10s} {n:4d} links: {compile_s:6.1f} s")
     return rows
 
 
@@ -161,15 +141,15 @@ def clearance_drive_speed(t_frac, n_links, settings):
     sc = comparison_drive(n_links, "clearance", "joint")
     t1 = t_frac * rev
     solvers = {"Tsit5": diffrax.Tsit5(), "Bosh3": diffrax.Bosh3(), "Dopri5": diffrax.Dopri5()}
-    ref, _ = timed_run(sc, t1, n_save=3, rtol=1e-9, atol=1e-12, max_steps=2_000_000)
+    ref, _, _ = timed_solve(sc, t1, n_save=3, rtol=1e-9, atol=1e-12, max_steps=2_000_000)
     peak_ref = float(ref.peak_contact_force)
     steps = int(ref.stats["num_steps"])
     print(f"  reference (Tsit5 rtol 1e-9): peak {peak_ref:.1f} N, {steps} steps")
     rows = []
     for name, rtol in settings:
         kw = dict(solver=solvers[name], rtol=rtol, atol=rtol * 1e-3, n_save=3, max_steps=1_000_000)
-        timed_run(sc, t1, **kw)  # compile
-        sol, wall = min((timed_run(sc, t1, **kw) for _ in range(2)), key=lambda r: r[1])
+        timed_solve(sc, t1, **kw)  # compile
+        sol, wall, _ = min((timed_solve(sc, t1, **kw) for _ in range(2)), key=lambda r: r[1])
         row = {
             "solver": name,
             "rtol": rtol,
@@ -268,12 +248,7 @@ def main(argv=None):
 
 
 def _chart(results, sols, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4))
+    fig, ax = figure(1, 3, figsize=(15, 4))
     comp = results["compile"]
     for fid in sorted({r["fidelity"] for r in comp}):
         rows = [r for r in comp if r["fidelity"] == fid]
@@ -298,9 +273,7 @@ def _chart(results, sols, path):
     ax[2].set_ylabel("largest roller–sprocket force [N]")
     ax[2].set_title("same drive, three fidelities")
     ax[2].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    write_chart(fig, path)
 
 
 if __name__ == "__main__":

@@ -5,25 +5,9 @@ sharding across devices, gradient cost, compile times.
     python -m benchmarks.ensembles --quick    # smoke run (a few minutes)
     python -m benchmarks.ensembles --compile-only   # (e) alone → ensembles_compile.json
 
-Writes ``benchmarks/results/ensembles.json`` and ``ensembles.png``. Every number is
-measured in this run (the machine is shared: loadavg is recorded at start and end;
-compare ratios, not seconds). Timings are warm (compile apart) and the minimum of repeats.
+Writes ``benchmarks/results/ensembles.json`` and ``ensembles.png``.
 
-(a) throughput: members per second of one vmapped batch (``group_waste=None``) against
-    batch size, on the meshing scene (08B, z = 18, lumped, settled) at 1000 rpm ± 10 %,
-    against ``simulate`` one member at a time;
-(b) waste: steps executed over steps needed for one batch, for grouping by the pilot's
-    prediction, and for grouping by a known cost (the previous run's step counts, free in
-    an optimization loop), against the spread of the operating points, with wall times
-    (the pilot's included);
-(c) sharding: the same ensemble on 4 forced host devices (``shard_map``: each device its
-    own while loop) against one device, in a subprocess (XLA_FLAGS must precede jax);
-(d) gradient over forward cost of an ensemble objective (mean peak force over members,
-    fixed steps) in the driver's seating radius, with a finite-difference check;
-(e) compile time of ``simulate``, of its reverse-mode gradient and of its forward-mode
-    derivative (``jax.jvp`` through ``diffrax.ForwardMode``) for a 200-link drive
-    (lumped, clearance; ``--quick``: 50 links, lumped), and that a second call with new
-    values does not retrace.
+Notes: benchmarks/ensembles.md
 """
 
 from __future__ import annotations
@@ -52,10 +36,13 @@ import numpy as np  # noqa: E402
 import jaxchain as jc  # noqa: E402
 from benchmarks.common import (  # noqa: E402
     FRICTIONLESS,
-    loadavg,  # noqa: E402
+    figure,
+    loadavg,
     modelled,
     parse,
     parser,
+    probe_drive,
+    write_chart,
 )
 
 Z = 18
@@ -409,16 +396,7 @@ def gradient_study(n, t1, dt, repeats, default_adjoint=True):
 
 # ------------------------------------------------------------------------- (e) compile
 def _compile_row(fid, links, t1, kw):
-    sc = jc.scenes.drive(
-        "08B",
-        **modelled(
-            teeth=(18, 36),
-            n_links=links,
-            fidelity=fid,
-            **FRICTIONLESS,
-            model=jc.scenes.ChainModel(settle=False),
-        ),
-    )
+    sc = probe_drive(links, fid)
     traces = {"forward": 0, "gradient": 0, "tangent": 0}
 
     def peak(scene):
@@ -547,21 +525,18 @@ def main(argv=None):
     results["compile"] = compile_study(("lumped",) if quick else ("lumped", "clearance"), links)
     results["machine"]["loadavg_end"] = loadavg()
     results["wall_s"] = time.perf_counter() - t_start
+    g, rows = results["gradient"], results["compile"]["rows"]
     results["targets"] = {
-        "grad_over_forward": results["gradient"]["grad_over_forward"],
-        "grad_over_forward_met": results["gradient"]["target_met"],
-        "grad_over_forward_every_step_checkpointed": results["gradient"][
-            "grad_over_forward_every_step_checkpointed"
-        ],
-        "grad_over_forward_every_step_checkpointed_met": results["gradient"][
-            "target_met_every_step_checkpointed"
-        ],
+        "grad_over_forward": g["grad_over_forward"],
+        "grad_over_forward_met": g["target_met"],
+        "grad_over_forward_every_step_checkpointed": g["grad_over_forward_every_step_checkpointed"],
+        "grad_over_forward_every_step_checkpointed_met": g["target_met_every_step_checkpointed"],
         **{
             f"compile_{r['fidelity']}_{k}_met": r[f"target_{k}_met"]
-            for r in results["compile"]["rows"]
+            for r in rows
             for k in ("forward", "gradient")
         },
-        "no_retrace": not any(r["retraced"] for r in results["compile"]["rows"]),
+        "no_retrace": not any(r["retraced"] for r in rows),
     }
     print("targets:", json.dumps(results["targets"], indent=1))
     (args.out / "ensembles.json").write_text(json.dumps(results, indent=1))
@@ -591,12 +566,7 @@ def compile_only(args) -> dict:
 
 
 def _chart(res, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(2, 3, figsize=(16, 8.5))
+    fig, ax = figure(2, 3, figsize=(16, 8.5))
     a = ax[0, 0]
     rows = res["throughput"]["rows"]
     a.plot(
@@ -687,10 +657,9 @@ def _chart(res, path):
     a.set_title(f"(e) compile, {rows[0]['links']}-link drive")
     a.legend(fontsize=8)
     load = res["machine"]["loadavg"][0]
-    fig.suptitle(f"jaxchain ensembles ({res['machine']['cpu_count']} CPU cores, load {load:.1f})")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    write_chart(
+        fig, path, f"jaxchain ensembles ({res['machine']['cpu_count']} CPU cores, load {load:.1f})"
+    )
 
 
 if __name__ == "__main__":

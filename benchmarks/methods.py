@@ -1,58 +1,18 @@
-"""Gradients against gradient-free methods at 4, 36 and 72 design coordinates.
+"""Gradients against gradient-free methods at 4, 36 and 72 design coordinates: Adam and
+L-BFGS on reverse-mode gradients, CMA-ES and Nelder-Mead, each from the middle of the box
+with one budget of simulation-equivalents (a value + gradient charged its measured cost).
 
     python -m benchmarks.methods            # full study (45 min on 2 cores)
     python -m benchmarks.methods --quick    # smoke run (4 and 36 coordinates, small budget)
+    python -m benchmarks.methods --dimensions 36g --seeds 1 --name methods_every_gap
+    python -m benchmarks.methods --name NAME --probes-only | --extend-cma BUDGET |
+        --perturbed-adam SIGMA              # amend OUT/NAME.json
+    (also --dt, --samples: the objective's fixed step and soft-peak samples)
 
 Writes ``benchmarks/results/methods.json`` and ``methods.png`` (best objective so far
 against simulation-equivalents, per method, per dimension).
 
-Objective, the same for every method and dimension: the design objective of
-:mod:`benchmarks.gradient_cost` (``designs.objective``: 08B engagement, z = 18,
-1000 rpm, 1000 N, one operating point, design contact law, fixed 4 µs steps over two
-tooth periods, the soft peak roller/tooth force of the second [N], its window sampled
-``SAMPLES`` times per step as in ``python -m optimize``; ``--samples 0`` integrates it
-by the solver's stages, which ripples the value when a force peak is shorter than a step)
-over its design spaces
-(``designs.spaces``): 4 coordinates (the ISO 606 box), 36 (per-gap seating radius
-and clockwise seat angle) and 72 (per-gap seating radius, both seat angles and seat
-offset). ``--dimensions 36g`` adds the 36-coordinate space on the every-gap objective
-(``designs.every_gap_objective``: six solves of four tooth periods, the sprocket
-turned by three pitches from one to the next, so that every gap meshes once in the
-window and every per-gap coordinate is live; budget 150). Every evaluation builds and
-settles the scene for its design
-(``ProfileObjective.value`` / ``value_and_grad``, as ``python -m optimize`` calls them);
-the statics solve is not counted as a simulation.
-
-Every method starts at u = 0 (the middle of each box) and gets the same budget of
-simulation-equivalents at a dimension. A value is one simulation; a value + gradient
-counts as ``ratio`` simulations, the ratio measured in this run at each dimension by
-``designs.measure`` (the solve alone, the least of interleaved warm calls). The
-wall-time ratio of the run's evaluations, statics included, is reported beside it.
-
-Methods:
-
-* Adam (optax) on reverse-mode gradients, learning rate ``LEARNING_RATE`` in u;
-* L-BFGS (SciPy's L-BFGS-B, no bounds) on the same value-and-gradients, each of its
-  evaluations (line-search trials included) counted at the ratio;
-* CMA-ES (the ``cma`` package), step size ``SIGMA0`` in u, its default population,
-  several seeds;
-* Nelder-Mead (SciPy, adaptive parameters), initial simplex of unit steps in u.
-
-Every method's first moves are steps of about one unit of u (a quarter of the box's width
-about its middle). A failed solve is a value of ``FAILED`` to the gradient-free methods
-and ends an Adam run; the failures are counted.
-
-Reported per dimension: each run's best value and the simulation-equivalents at which it
-found it; the simulations each method needs to reach a common target (90 % of the largest
-decrease any method found); and for each CMA-ES seed and each gradient method, the
-simulation-equivalents the gradient method needs to reach that seed's best against those
-CMA-ES spent on it (the speed-up; none where it never gets there). And how
-far the gradient predicts the objective, at the start and at Adam's best: the value after
-steps of at most ``h`` along the steepest descent direction, ``PROBE_STEPS``, against the
-first-order prediction (``--probes-only`` re-measures these on the rows of an existing
-``methods.json``). ``--extend-cma BUDGET`` re-runs the CMA-ES seeds of an existing result
-file with a larger budget (same seeds: the first evaluations repeat) and re-analyses it
-``methods.json``).
+Notes: benchmarks/methods.md
 """
 
 from __future__ import annotations
@@ -71,6 +31,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks import designs  # noqa: E402
 from benchmarks.common import (  # noqa: E402
+    figure,
     finish,
     machine_info,  # noqa: E402
     parse,
@@ -115,13 +76,15 @@ class _Budget(Exception):
 
 
 class Tracker:
-    """Evaluations of one method run: simulation-equivalents spent, values, the best."""
+    """Evaluations of one method run: simulation-equivalents spent, values, the best, and
+    the run's wall time from its start."""
 
     def __init__(self, budget: float):
         self.budget = budget
         self.sims = 0.0
         self.trace: list[tuple[float, float]] = []  # (simulation-equivalents, value)
         self.best, self.best_u, self.failed = math.inf, None, 0
+        self.start = time.perf_counter()
 
     def room(self, cost: float) -> bool:
         return self.sims + cost <= self.budget + 1e-9
@@ -147,7 +110,16 @@ class Tracker:
 
         return f
 
-    def result(self, method: str, seed: int | None, wall: float, **extra) -> dict:
+    @staticmethod
+    def spend(run) -> str | None:
+        """``run()``'s stop message, or None where it raised ``_Budget``."""
+        try:
+            return run()
+        except _Budget:
+            return None
+
+    def result(self, method: str, seed: int | None, **extra) -> dict:
+        wall = time.perf_counter() - self.start
         sims = np.array([s for s, _ in self.trace])
         values = np.array([v for _, v in self.trace])
         best_so_far = np.minimum.accumulate(values)
@@ -174,9 +146,20 @@ class Tracker:
         }
 
 
-def adam(
-    obj, u0, ratio: float, budget: float, method: str = "Adam"
-) -> tuple[dict, Tracker, np.ndarray]:
+def said(run: dict, where: str = "") -> dict:
+    """``run``, its best printed."""
+    seed = "" if run["seed"] is None else f" seed {run['seed']}"
+    stop = f" ({run['stop']})" if "stop" in run else ""
+    print(
+        f"  {where}{run['method']}{seed}: best {run['best_N']:.2f} N at "
+        f"{run['best_at_sims']:.0f} sims{stop}",
+        flush=True,
+    )
+    return run
+
+
+def adam(obj, u0, ratio: float, budget: float, method: str = "Adam") -> tuple[dict, np.ndarray]:
+    """Adam's run and the gradient at its start."""
     import optax
 
     tr = Tracker(budget)
@@ -184,7 +167,6 @@ def adam(
     u = jnp.asarray(u0)
     state = opt.init(u)
     grad0 = None
-    t = time.perf_counter()
     while tr.room(ratio):
         value, grad, _ = obj.value_and_grad(u)
         tr.record(ratio, float(value), u)
@@ -193,8 +175,7 @@ def adam(
         grad0 = np.asarray(grad) if grad0 is None else grad0
         updates, state = opt.update(grad, state)
         u = optax.apply_updates(u, updates)
-    wall = time.perf_counter() - t
-    return tr.result(method, None, wall, learning_rate=LEARNING_RATE), tr, grad0
+    return tr.result(method, None, learning_rate=LEARNING_RATE), grad0
 
 
 def lbfgs(obj, u0, ratio: float, budget: float) -> dict:
@@ -212,16 +193,13 @@ def lbfgs(obj, u0, ratio: float, budget: float) -> dict:
             raise _Budget  # a failed solve ends the run, as for Adam
         return tr.record(ratio, float(value), u), grad
 
-    stop = "budget"
-    options = {"maxfun": 10**9, "maxiter": 10**9, "ftol": 1e-12, "gtol": 1e-8}
-    t = time.perf_counter()
-    try:
+    def run():
+        options = {"maxfun": 10**9, "maxiter": 10**9, "ftol": 1e-12, "gtol": 1e-8}
         res = minimize(f, np.asarray(u0), jac=True, method="L-BFGS-B", options=options)
-        stop = str(res.message)
-    except _Budget:
-        stop = "failed solve" if tr.failed else "budget"
-    wall = time.perf_counter() - t
-    return tr.result("L-BFGS", None, wall, stop=stop)
+        return str(res.message)
+
+    stop = tr.spend(run) or ("failed solve" if tr.failed else "budget")
+    return tr.result("L-BFGS", None, stop=stop)
 
 
 def cma_es(obj, u0, budget: float, seed: int) -> dict:
@@ -230,17 +208,15 @@ def cma_es(obj, u0, budget: float, seed: int) -> dict:
     tr = Tracker(budget)
     f = tr.value_fn(obj)
     es = cma.CMAEvolutionStrategy(np.asarray(u0), SIGMA0, {"seed": seed, "verbose": -9})
-    stop = "budget"
-    t = time.perf_counter()
-    try:
+
+    def run():
         while not es.stop():
             xs = es.ask()
             es.tell(xs, [f(x) for x in xs])
-        stop = ", ".join(f"{k}" for k in es.stop())
-    except _Budget:
-        pass
-    wall = time.perf_counter() - t
-    return tr.result("CMA-ES", seed, wall, sigma0=SIGMA0, popsize=es.popsize, stop=stop)
+        return ", ".join(f"{k}" for k in es.stop())
+
+    stop = tr.spend(run) or "budget"
+    return tr.result("CMA-ES", seed, sigma0=SIGMA0, popsize=es.popsize, stop=stop)
 
 
 def nelder_mead(obj, u0, budget: float) -> dict:
@@ -253,15 +229,8 @@ def nelder_mead(obj, u0, budget: float) -> dict:
     simplex = u0 + np.vstack([np.zeros(n), np.eye(n)])
     options = {"initial_simplex": simplex, "adaptive": True, "maxfev": 10**9,
                "xatol": 1e-9, "fatol": 1e-9}  # fmt: skip
-    stop = "budget"
-    t = time.perf_counter()
-    try:
-        res = minimize(f, u0, method="Nelder-Mead", options=options)
-        stop = str(res.message)
-    except _Budget:
-        pass
-    wall = time.perf_counter() - t
-    return tr.result("Nelder-Mead", None, wall, stop=stop)
+    stop = tr.spend(lambda: str(minimize(f, u0, method="Nelder-Mead", options=options).message))
+    return tr.result("Nelder-Mead", None, stop=stop or "budget")
 
 
 def probe(obj, u, fine) -> dict:
@@ -326,32 +295,22 @@ def analyse(row: dict) -> None:
         }
 
 
-def study(name: str, space, budget: float, seeds, repeats: int, dt: float, samples: int) -> dict:
-    cost = designs.cost_of(space, repeats, obj=objective_of(name, space, dt, samples))
+def study(name: str, spaces: dict, p: dict, dt: float, samples: int) -> dict:
+    """Row ``name`` of the plan ``p``: every method's runs on its objective, analysed."""
+    space, budget = designs.space_of(name, spaces), p["budget"][name]
+    cost = designs.cost_of(space, p["repeats"], obj=objective_of(name, space, dt, samples))
     ratio = cost["ratio"]
     print(f"{name}: value+gradient / value = {ratio:.2f}", flush=True)
     obj = objective_of(name, space, dt, samples, throw=False)
     u0 = jnp.zeros(space.size)
     start, members = obj.value(u0)
     start = float(start)
-    runs = []
-    run, _, grad0 = adam(obj, u0, ratio, budget)
-    runs.append(run)
-    print(f"  Adam: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims", flush=True)
-    run = lbfgs(obj, u0, ratio, budget)
-    runs.append(run)
-    print(f"  L-BFGS: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims"
-          f" ({run['stop']})", flush=True)  # fmt: skip
-    for seed in seeds:
-        run = cma_es(obj, u0, budget, seed)
-        runs.append(run)
-        print(f"  CMA-ES seed {seed}: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f}"
-              f" sims ({run['stop']})", flush=True)  # fmt: skip
-    run = nelder_mead(obj, u0, budget)
-    runs.append(run)
-    print(f"  Nelder-Mead: best {run['best_N']:.2f} N at {run['best_at_sims']:.0f} sims",
-          flush=True)  # fmt: skip
+    run, grad0 = adam(obj, u0, ratio, budget)
+    runs = [said(run), said(lbfgs(obj, u0, ratio, budget))]
+    runs += [said(cma_es(obj, u0, budget, seed)) for seed in p["seeds"]]
+    runs.append(said(nelder_mead(obj, u0, budget)))
     g = np.abs(grad0)
+    free = [r["seconds_per_evaluation"] for r in runs if r["method"] not in GRADIENT_METHODS]
     row = {
         "space": name,
         "dimension": space.size,
@@ -360,12 +319,7 @@ def study(name: str, space, budget: float, seeds, repeats: int, dt: float, sampl
         "ratio": ratio,
         "cost": cost,
         # seconds per Adam step over seconds per gradient-free evaluation, statics included
-        "wall_ratio": runs[0]["seconds_per_evaluation"]
-        / float(
-            np.median(
-                [r["seconds_per_evaluation"] for r in runs if r["method"] not in GRADIENT_METHODS]
-            )
-        ),
+        "wall_ratio": runs[0]["seconds_per_evaluation"] / float(np.median(free)),
         "start_N": start,
         # the members at the start (every-gap rows: one uniform tooth turned, all equal)
         "start_members_N": np.asarray(members.value, dtype=float).tolist(),
@@ -378,13 +332,10 @@ def study(name: str, space, budget: float, seeds, repeats: int, dt: float, sampl
 
 
 def chart(results: dict, path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     rows = results["rows"]
-    fig, axes = plt.subplots(1, len(rows), figsize=(5 * len(rows), 4), squeeze=False)
+    fig, axes = figure(1, len(rows), figsize=(5 * len(rows), 4), squeeze=False)
     colors = {"Adam": "tab:red", "L-BFGS": "tab:purple", "CMA-ES": "tab:blue",
               "Nelder-Mead": "tab:green", PERTURBED: "tab:orange"}  # fmt: skip
     for ax, row in zip(axes[0], rows, strict=True):
@@ -422,57 +373,52 @@ def chart(results: dict, path) -> None:
     plt.close(fig)
 
 
-def extend_cma(out, name: str, budget: float, start: float) -> dict:
-    """Re-run each row's CMA-ES seeds of ``out/name.json`` with ``budget`` simulations,
-    replacing their runs, and re-analyse (targets and speed-ups)."""
-    results = json.loads((out / f"{name}.json").read_text())
-    spaces = designs.spaces()
+def amend(args, start: float) -> dict:
+    """``--probes-only``, ``--extend-cma`` or ``--perturbed-adam`` (the first given) on the
+    rows of OUT/NAME.json: re-measure the probes; re-run each row's CMA-ES seeds with the
+    budget given, replacing their runs; or add an Adam run from the start moved by
+    σ·N(0, 1) (seed 0: on the every-gap objective the turned members make the gradient at
+    the uniform start equal for gaps k, k + 3, …, and Adam from there keeps that symmetry;
+    from a perturbed start it searches every direction). Re-analyses; rewrites the file
+    and its chart with the amending command."""
+    path = args.out / f"{args.name}.json"
+    results = json.loads(path.read_text())
+    spaces, steps = designs.spaces(), saved_steps(results["settings"])
     for row in results["rows"]:
         space = designs.space_of(row["space"], spaces)
-        obj = objective_of(row["space"], space, *saved_steps(results["settings"]), throw=False)
-        u0 = jnp.zeros(space.size)
-        for i, r in enumerate(row["runs"]):
-            if r["method"] != "CMA-ES":
-                continue
-            row["runs"][i] = cma_es(obj, u0, budget, r["seed"])
-            print(f"  {row['space']}: CMA-ES seed {r['seed']}, budget {budget:g}: best "
-                  f"{row['runs'][i]['best_N']:.2f} N at {row['runs'][i]['best_at_sims']:.0f} sims",
-                  flush=True)  # fmt: skip
-        row["cma_budget"] = budget
+        if args.probes_only:
+            add_probes(row, space, *steps)
+            continue
+        obj = objective_of(row["space"], space, *steps, throw=False)
+        where = f"{row['space']}: "
+        if args.extend_cma is not None:
+            for i, r in enumerate(row["runs"]):
+                if r["method"] == "CMA-ES":
+                    run = cma_es(obj, jnp.zeros(space.size), args.extend_cma, r["seed"])
+                    row["runs"][i] = said(run, where)
+            row["cma_budget"] = args.extend_cma
+        else:
+            sigma, seed = args.perturbed_adam, 0
+            u0 = sigma * np.random.default_rng(seed).normal(size=space.size)
+            run, _ = adam(obj, jnp.asarray(u0), row["ratio"], row["budget"], method=PERTURBED)
+            run.update(start_noise=sigma, noise_seed=seed, start_value_N=run["curve"][0][1])
+            row["runs"] = [r for r in row["runs"] if r["method"] != PERTURBED] + [said(run, where)]
         analyse(row)
-    return _amend(out, name, results, "extend_cma", f"--extend-cma {budget:g}", start)
-
-
-def _amend(out, name: str, results: dict, key: str, flags: str, start: float) -> dict:
-    """Record the amending command under ``key`` and rewrite ``out/name.json`` and its chart."""
-    results[key] = {
-        "command": f"python -m benchmarks.methods --name {name} {flags}",
-        "date": datetime.date.today().isoformat(),
-        "seconds": time.perf_counter() - start,
-    }
-    (out / f"{name}.json").write_text(json.dumps(results, indent=1))
-    chart(results, out / f"{name}.png")
+    if args.probes_only:
+        results["probes_command"] = "python -m benchmarks.methods --probes-only"
+        results["probes_date"] = datetime.date.today().isoformat()
+        results["probes_s"] = time.perf_counter() - start
+    else:
+        key = "extend_cma" if args.extend_cma is not None else "perturbed_adam"
+        flag = f"--{key.replace('_', '-')} {getattr(args, key):g}"
+        results[key] = {
+            "command": f"python -m benchmarks.methods --name {args.name} {flag}",
+            "date": datetime.date.today().isoformat(),
+            "seconds": time.perf_counter() - start,
+        }
+    path.write_text(json.dumps(results, indent=1))
+    chart(results, args.out / f"{args.name}.png")
     return results
-
-
-def perturbed_adam(out, name: str, sigma: float, start: float, seed: int = 0) -> dict:
-    """Add to each row of ``out/name.json`` an Adam run from the start moved by
-    ``sigma``·N(0, 1) (seeded): on the every-gap objective the turned members make the
-    gradient at the uniform start equal for gaps k, k + 3, …, and Adam from there keeps
-    that symmetry; from a perturbed start it searches every direction. Re-analyses."""
-    results = json.loads((out / f"{name}.json").read_text())
-    spaces = designs.spaces()
-    for row in results["rows"]:
-        space = designs.space_of(row["space"], spaces)
-        obj = objective_of(row["space"], space, *saved_steps(results["settings"]), throw=False)
-        u0 = sigma * np.random.default_rng(seed).normal(size=space.size)
-        run, _, _ = adam(obj, jnp.asarray(u0), row["ratio"], row["budget"], method=PERTURBED)
-        run.update(start_noise=sigma, noise_seed=seed, start_value_N=run["curve"][0][1])
-        row["runs"] = [r for r in row["runs"] if r["method"] != PERTURBED] + [run]
-        print(f"  {row['space']}: {PERTURBED} (σ = {sigma:g}): best {run['best_N']:.2f} N at "
-              f"{run['best_at_sims']:.0f} sims", flush=True)  # fmt: skip
-        analyse(row)
-    return _amend(out, name, results, "perturbed_adam", f"--perturbed-adam {sigma:g}", start)
 
 
 def main(argv=None) -> dict:
@@ -481,20 +427,11 @@ def main(argv=None) -> dict:
         "--probes-only", action="store_true",
         help="only (re)measure the gradient probes of the rows in OUT/NAME.json",
     )  # fmt: skip
-    ap.add_argument(
-        "--extend-cma",
-        type=float,
-        default=None,
-        metavar="BUDGET",
-        help="re-run the CMA-ES seeds of OUT/NAME.json with this budget of simulations",
-    )
-    ap.add_argument(
-        "--perturbed-adam",
-        type=float,
-        default=None,
-        metavar="SIGMA",
-        help="add to OUT/NAME.json an Adam run from the start moved by SIGMA·N(0, 1)",
-    )
+    for flag, metavar, what in (
+        ("--extend-cma", "BUDGET", "re-run the CMA-ES seeds of OUT/NAME.json with this budget"),
+        ("--perturbed-adam", "SIGMA", "add to OUT/NAME.json an Adam run from u = SIGMA·N(0, 1)"),
+    ):
+        ap.add_argument(flag, type=float, default=None, metavar=metavar, help=what)
     ap.add_argument(
         "--dt",
         type=float,
@@ -518,26 +455,10 @@ def main(argv=None) -> dict:
         "--seeds", type=int, default=None, help="CMA-ES seeds 1..SEEDS (default: the plan's)"
     )
     ap.add_argument("--name", default="methods", help="results' file name (default %(default)s)")
-    # fmt: skip
     args = parse(ap, argv)
     start = time.perf_counter()
-    if args.probes_only:
-        results = json.loads((args.out / f"{args.name}.json").read_text())
-        spaces = designs.spaces()
-        for row in results["rows"]:
-            add_probes(
-                row, designs.space_of(row["space"], spaces), *saved_steps(results["settings"])
-            )
-        results["probes_command"] = "python -m benchmarks.methods --probes-only"
-        results["probes_date"] = datetime.date.today().isoformat()
-        results["probes_s"] = time.perf_counter() - start
-        (args.out / f"{args.name}.json").write_text(json.dumps(results, indent=1))
-        chart(results, args.out / f"{args.name}.png")
-        return results
-    if args.extend_cma is not None:
-        return extend_cma(args.out, args.name, args.extend_cma, start)
-    if args.perturbed_adam is not None:
-        return perturbed_adam(args.out, args.name, args.perturbed_adam, start)
+    if args.probes_only or args.extend_cma is not None or args.perturbed_adam is not None:
+        return amend(args, start)
     p = plan(args.quick)
     if args.dimensions:
         p["dimensions"] = tuple(d for d in args.dimensions.split(",") if d in p["budget"])
@@ -546,18 +467,7 @@ def main(argv=None) -> dict:
     if args.seeds is not None:
         p["seeds"] = tuple(range(1, args.seeds + 1))
     spaces = designs.spaces()
-    rows = [
-        study(
-            name,
-            designs.space_of(name, spaces),
-            p["budget"][name],
-            p["seeds"],
-            p["repeats"],
-            args.dt,
-            args.samples,
-        )  # fmt: skip
-        for name in p["dimensions"]
-    ]
+    rows = [study(name, spaces, p, args.dt, args.samples) for name in p["dimensions"]]
     results = {
         "study": "methods",
         "command": "python -m benchmarks.methods"

@@ -1,16 +1,10 @@
 """jaxchain beside EXUDYN on one lumped drive at matched physics, one after the other.
 
-08B 18/36, 60 links, 300 rpm (``--rpm``), 20 N·m, 200 N pretension, settled start,
-frictionless, contact undamped, links at ζ 0.05. EXUDYN (fast module, one thread, RK4 at
-its refined fixed step) gets jaxchain's masses, spin inertias, link springs and dampers,
-driven inertia, outline (as segments, their midpoints on it), start state and load; its
-driver is a 1e4 kg·m² body at the driver speed. EXUDYN's contact force is k_c × overlap
-area (∝ δ^1.5 in a seat), k_c set to Johnson's depth at the tight span's tension; jaxchain
-runs with its Johnson law and with the δ^1.5 law equal to EXUDYN's in a seat. Both over
-0.1 s.
-
     python -m benchmarks.peers            # ~13 min on 2 shared cores (load 6-8)
+    python -m benchmarks.peers --quick    # one mesh period (t1 = 0.012 s)
     python -m benchmarks.peers --rpm 600  # the second speed: results/peers_600rpm.json
+
+Writes ``benchmarks/results/peers.json`` and ``peers.png``. Notes: benchmarks/peers.md
 """
 
 import math

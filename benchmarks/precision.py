@@ -1,7 +1,8 @@
 """The solver-precision toolkit the speed and accuracy studies share: diffrax's solvers by
 name, the lumped engagement and short drive they are measured on, a float64 reference
 with its continuous peak, sweeps over tolerances and steps, and the best time at an
-error level (``work_precision``, ``scipy_engagement``, ``regularization``, ``fidelity``).
+error level (``work_precision``, ``scipy_engagement``, ``regularization``, ``fidelity``);
+fixed-step solves and the search for a step boundary (``regularization``, ``stability``).
 """
 
 from __future__ import annotations
@@ -44,8 +45,10 @@ STYLE = {
 
 
 # ----------------------------------------------------------------------------- scenes
-def engagement_scene():
-    return jc.scenes.engagement("08B", 18, **modelled(speed_rpm=RPM, **FRICTIONLESS))
+def engagement_scene(**kw):
+    """The 08B z = 18 engagement at 1000 rpm, frictionless joints; ``kw``: the builder's and
+    the chain model's keywords (``jc.scenes.engagement``, ``jc.scenes.ChainModel``)."""
+    return jc.scenes.engagement("08B", 18, **modelled(**{"speed_rpm": RPM, **FRICTIONLESS, **kw}))
 
 
 # The drive starts from its layout (settle=False): jc.scenes.drive's static equilibrium
@@ -59,6 +62,47 @@ def drive_scene():
 
 
 # ----------------------------------------------------------------------------- solves
+def fixed_solve(scene, t1, dt, *, max_steps, solver=None, n_save=2):
+    """One fixed-step solve (``solver``, default Tsit5, at step ``dt``), not thrown on
+    failure: the ``jc.Solution``."""
+    return jc.simulate(
+        scene,
+        t1,
+        solver=diffrax.Tsit5() if solver is None else solver,
+        stepsize_controller=diffrax.ConstantStepSize(),
+        dt0=dt,
+        max_steps=max_steps,
+        n_save=n_save,
+        throw=False,
+    )
+
+
+def step_runs(run):
+    """``(runs, at)``: ``at(h)`` returns ``run(h)`` of a step ``h``, run once and kept in
+    ``runs`` (step -> result) for the boundary searches over fixed steps."""
+    runs = {}
+
+    def at(h):
+        h = float(h)
+        if h not in runs:
+            runs[h] = run(h)
+        return runs[h]
+
+    return runs, at
+
+
+def log_bisect(passes, ok, bad, n):
+    """``n`` log-bisections of the steps between ``ok`` (passes) and ``bad`` (fails);
+    ``passes(h)`` says whether step ``h`` passes. The new ``(ok, bad)``."""
+    for _ in range(n):
+        mid = math.sqrt(ok * bad)
+        if passes(mid):
+            ok = mid
+        else:
+            bad = mid
+    return ok, bad
+
+
 def solve(scene, t1, name, *, rtol=None, dt=None, max_steps=200_000):
     """One solve; returns a dict of JAX arrays (peak, q1, ok, steps, …), not yet synced."""
     factory, family = SOLVERS[name]
@@ -268,3 +312,10 @@ def best_table(rows, levels, err_key="peak_rel_err"):
             }
         )
     return table
+
+
+# ----------------------------------------------------------------------------- charts
+def plot_points(plot, pts, *args, **kw):
+    """``plot`` (``ax.plot``, ``ax.semilogx``, …) the (x, y) pairs ``pts``, if there are any."""
+    if pts:
+        plot(*zip(*pts, strict=True), *args, **kw)

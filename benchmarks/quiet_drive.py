@@ -8,29 +8,9 @@ Writes ``benchmarks/results/quiet_drive.json`` and ``quiet_drive.png``. Each sol
 a process of its own (single-threaded XLA), so ``--processes`` spreads the study over the
 cores of a machine; finished solves are kept in ``quiet_drive.partial.json`` (written
 atomically: a kill never leaves half a file) and a rerun with the same settings skips them.
+Other options: ``--revs``, ``--designs``, ``--speeds``.
 
-Scene: 08B chain, 60 links, driver z = 18 (the sprocket designed) and a uniform ISO 606
-minimum-form z = 36, 40 N·m load, 300 N pretension, lumped chain with joint friction,
-settled start. Each solve runs ``revs`` revolutions of the driver; the signals' rotation
-orders 0–72 of the driver are integrated inside the solve (Hann window over revolutions
-0.25 to ``revs`` − 0.05: ``jc.observers.OrderSpectrum``). Mesh order is 18; the band is
-0.5–3.5 mesh orders (orders 9–63), as in ``BandLevel.mesh_band``.
-
-Designs of the z = 18 driver:
-
-* ``iso_min``, ``iso_max``: the ISO 606 minimum and maximum forms, every tooth alike;
-* ``gentle``: the main job's free-form asymmetric tooth of its 2026-11-24 run
-  (``benchmarks/results/optimize_noclip/results.json``, the design the committed results
-  were measured on), every tooth alike;
-* ``random_radius``: a per-tooth pattern, each gap's seating radius drawn uniformly in the
-  ISO 606 range (seed 0), the ISO minimum form's flanks;
-* ``random_flanks``: a per-tooth pattern, each gap's two seat angles drawn uniformly in
-  the main job's free-form box (clockwise 62–78°, counter-clockwise 57–68°, seed 0).
-
-For each design and speed: the lines of the driven sprocket's bearing force and torque,
-the largest line in the band, and the peak roller/tooth force (at the save times). The
-figure shows the largest line against speed, the peak against speed, and the spectra at
-the speed where the uniform ISO minimum form is loudest.
+Notes: benchmarks/quiet_drive.md
 """
 
 from __future__ import annotations
@@ -67,7 +47,7 @@ GENTLE = Path(__file__).parent / "results" / "optimize_noclip" / "results.json"
 
 
 def profile(design: str):
-    """The z = 18 driver's tooth profile of ``design`` (module docstring)."""
+    """The z = 18 driver's tooth profile of ``design`` (the notes list the designs)."""
     import jaxchain as jc
 
     chain = jc.ChainSpec.iso606(CHAIN)

@@ -1,68 +1,13 @@
-"""Accuracy against the contact regularization and against the model's fidelity, with cost.
+"""Accuracy against the contact regularization and against the model's fidelity, with cost:
+the roller/tooth law's regularization fields swept one at a time on the engagement strand
+(bias, adaptive and fixed-step Tsit5), then lumped against clearance from the layout.
 
     python -m benchmarks.regularization            # full study (~25 min on 2 busy cores)
     python -m benchmarks.regularization --quick    # smoke run (~4–6 min on 2 busy cores)
 
 Writes ``benchmarks/results/regularization.json`` and ``regularization.png``.
 
-One strand throughout: 08B chain, z = 18 driver at 1000 rpm, 1000 N entry tension, 8
-entry, 9 wrapped and 5 exit rollers (the work-precision engagement with one more exit
-roller: the clearance model needs an even count), 4 tooth periods (2 with ``--quick``).
-
-**Regularization sweep** (lumped, settled start). The roller/tooth law (Johnson's cylinder
-law, ``jc.scenes.roller_law``) changed in one regularization field at a time, the scene
-settled again with that law:
-
-* ``width``: the penetration regularization (force onset at δ = −width, C¹ blend over
-  ±width), nominal 1e-8 m, up to 1e-5 m in half decades;
-* ``speed_floor``: the damping's velocity regularization, v⁻ → √(v⁻² + floor²), nominal
-  1e-3 m/s, raised to 0.1, 0.3 and 1 × the scene's reference impact speed;
-* ``clamp_width``: half-width of the C¹ no-pull clamp of the damping bracket, nominal
-  0.05, set to 0 (a bare max) and 0.5.
-
-The lumped chain's links are linear spring-dampers (``LinkSprings``): nothing regularized
-there. The clearance model's pin/bush and bush/roller joints use the same law; their onset
-width is checked in the fidelity part, against the noise there.
-
-For each setting:
-
-* its own converged peak: the Dopri8 dense-output peak (``work_precision.reference``) at
-  rtol 1e-10, checked against 1e-9 (the nominal setting: 1e-11 against 1e-10);
-  ``bias`` = that peak against the nominal one: the error of the regularization alone;
-* adaptive Tsit5 at rtol 1e-6 (atol 1e-9, ``simulate``'s defaults): peak error against
-  the nominal reference (what a user gets), steps, wall time (min of repeats after a
-  first call; the first call's excess over it, once, is the compile time);
-* fixed-step Tsit5 at the design loop's 4 µs (``optimize``'s default dt): peak error;
-* the largest fixed Tsit5 step that is *stable* (successful, peak below 10× the
-  setting's own reference) and the largest that is *accurate* (stable and peak within
-  5 % of the setting's own reference): a √2 grid up from 2 µs (down to 0.7 µs if 2 µs
-  fails), then bisection; each boundary is the largest step below which every tried step
-  passes. Peak error and wall time at the accurate step.
-
-Peaks here are ``Solution.peak_contact_force`` (each accepted step's top read from 5
-samples on the dense output, and the save times': what a user gets); at fixed steps of
-several µs on impacts lasting tens of µs that read-out is part of the error.
-
-**Fidelity.** Lumped against clearance (rigid pin and roller links on pin/bush and
-bush/roller clearance joints). Like with like: both start from the layout
-(``benchmarks/fidelity.py`` compares settled starts), and the peaks are taken over the
-later engagements only (from the second tooth period on: the first holds the snap of the
-rollers into their seats). The free span ends are held by springs of 1/2000 of a link's
-stiffness instead of the default 1/50: with the default spring a strand started from the
-layout takes up its slack against that spring, and its tight span runs far below 1000 N
-for many periods, at a different level per fidelity (measured on the nominal speed,
-``operating_point``); with the soft spring the anchor pulls its tension from the start.
-Forces and tensions saved every 1 µs.
-
-The peak over a few engagements is sensitive (rollers rattle in their seats, and in the
-clearance model in their joints), so each fidelity runs a small ensemble, the speed
-perturbed by −0.1, −0.05, 0, +0.05, +0.1 % (quick: 0, +0.1 %), and the nominal member
-again at rtol 1e-7 and 1e-8 (quick: 1e-7): the difference between the fidelities is
-stated against the spread of both. Per member: window peak of the roller/tooth force,
-per-period peaks, the tight span's (entry-end link's) mean and peak tension, the largest
-link tension, steps. Cost: Tsit5 at rtol 1e-6 on the nominal member, saving only t0 and
-t1 (wall = min of repeats after a first call). The clearance joints' onset width is swept
-on the nominal member (full run).
+Notes: benchmarks/regularization.md
 """
 
 from __future__ import annotations
@@ -76,22 +21,20 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-import diffrax  # noqa: E402
 import equinox as eqx  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import (  # noqa: E402
-    FRICTIONLESS,
-    loadavg,
-    machine_info,
-    modelled,
-    parse,
-    parser,
-    tooth_period,  # noqa: E402
+from benchmarks.common import loadavg, machine_info, parse, parser, tooth_period  # noqa: E402
+from benchmarks.precision import (  # noqa: E402
+    engagement_scene,
+    fixed_solve,
+    log_bisect,
+    plot_points,
+    reference,
+    step_runs,
 )
-from benchmarks.precision import reference  # noqa: E402
 
 CHAIN, TEETH, RPM, TENSION, RESTITUTION = "08B", 18, 1000.0, 1000.0, 0.7
 PERIOD = tooth_period(TEETH, RPM)
@@ -127,16 +70,10 @@ def law_with(law, **values):
 
 def sweep_scene(law):
     """The engagement of the sweep (settled, default span springs) with roller law ``law``."""
-    return jc.scenes.engagement(
-        CHAIN,
-        TEETH,
-        **modelled(
-            speed_rpm=RPM,
-            tension=TENSION,
-            n_exit=N_EXIT,
-            **FRICTIONLESS,
-            model=jc.scenes.ChainModel(restitution=RESTITUTION, roller_contact=law),
-        ),
+    return engagement_scene(
+        tension=TENSION,
+        n_exit=N_EXIT,
+        model=jc.scenes.ChainModel(restitution=RESTITUTION, roller_contact=law),
     )
 
 
@@ -159,19 +96,14 @@ def fidelity_scene(fidelity, speed_rpm, span_softening=SPAN_SOFTENING):
     k_span = None
     if span_softening is not None:
         k_span = jc.scenes.link_stiffness(chain, TENSION) / span_softening
-    sc = jc.scenes.engagement(
-        chain,
-        TEETH,
-        **modelled(
-            speed_rpm=speed_rpm,
-            tension=TENSION,
-            n_exit=N_EXIT,
-            fidelity=fidelity,
-            span_stiffness=k_span,
-            **FRICTIONLESS,
-            model=jc.scenes.ChainModel(
-                restitution=RESTITUTION, settle=False, roller_contact=law_with(nominal_law())
-            ),
+    sc = engagement_scene(
+        speed_rpm=speed_rpm,
+        tension=TENSION,
+        n_exit=N_EXIT,
+        fidelity=fidelity,
+        span_stiffness=k_span,
+        model=jc.scenes.ChainModel(
+            restitution=RESTITUTION, settle=False, roller_contact=law_with(nominal_law())
         ),
     )
     return joint_laws_with(sc)
@@ -193,16 +125,7 @@ def adaptive(scene, t1, rtol=ADAPTIVE_RTOL, dense=False):
 
 
 def fixed(scene, t1, dt):
-    return jc.simulate(
-        scene,
-        t1,
-        solver=diffrax.Tsit5(),
-        stepsize_controller=diffrax.ConstantStepSize(),
-        dt0=dt,
-        max_steps=FIXED_MAX_STEPS,
-        n_save=2,
-        throw=False,
-    )
+    return fixed_solve(scene, t1, dt, max_steps=FIXED_MAX_STEPS)
 
 
 def timed(call, repeats):
@@ -237,14 +160,8 @@ def judge(sol, own_peak):
 
 
 def step_search(scene, t1, own_peak, n_bisect):
-    """Largest fixed Tsit5 steps that are stable / accurate (see the module docstring)."""
-    runs = {}
-
-    def at(h):
-        h = float(h)
-        if h not in runs:
-            runs[h] = judge(fixed(scene, t1, h), own_peak) | {"dt": h}
-        return runs[h]
+    """Largest fixed Tsit5 steps that are stable / accurate (see the notes)."""
+    runs, at = step_runs(lambda h: judge(fixed(scene, t1, h), own_peak) | {"dt": h})
 
     k = 0
     while at(H0 * 2 ** (k / 2))["stable"] and k < K_UP:
@@ -261,12 +178,7 @@ def step_search(scene, t1, own_peak, n_bisect):
                 break
             ok = h
         if ok is not None and bad is not None:
-            for _ in range(n_bisect):
-                mid = math.sqrt(ok * bad)
-                if at(mid)[key]:
-                    ok = mid
-                else:
-                    bad = mid
+            ok, bad = log_bisect(lambda h: at(h)[key], ok, bad, n_bisect)
         return ok, bad
 
     h_acc, h_inacc = boundary("accurate")
@@ -282,7 +194,7 @@ def step_search(scene, t1, own_peak, n_bisect):
 
 # ----------------------------------------------------------------------------- sweep
 def setting_row(param, value, nominal_value, scene, t1, nominal_ref, p):
-    """Every measurement of one regularization setting (see the module docstring)."""
+    """Every measurement of one regularization setting (see the notes)."""
     is_nominal = value == nominal_value
     print(f"{param} = {value:.3g}{' (nominal)' if is_nominal else ''}", flush=True)
     ref = nominal_ref if is_nominal else reference(scene, t1, rtol=p["ref_rtol"])
@@ -675,8 +587,7 @@ def chart(results, path=None):
             v = r["bias"] if key == "bias" else (r.get(key) or {}).get("err")
             if v is not None:
                 pts.append((r["value"], 100 * v))
-        if pts:
-            ax.semilogx(*zip(*pts, strict=True), style, label=label)
+        plot_points(ax.semilogx, pts, style, label=label)
     ax.axhline(0, color="gray", lw=0.8)
     ax.set_xlabel("roller/tooth onset width [m]")
     ax.set_ylabel("peak force vs nominal converged reference [%]")
@@ -687,16 +598,14 @@ def chart(results, path=None):
     ax = axes[0, 1]
     ax.semilogx(w, [r["adaptive"]["steps"] for r in wr], "C0-s", label="Tsit5 rtol 1e-6: steps")
     fw = [(r["value"], r["fixed_at_accurate"]["steps"]) for r in wr if "fixed_at_accurate" in r]
-    if fw:
-        ax.semilogx(*zip(*fw, strict=True), "C2-v", label="Tsit5 fixed, largest 5 % step: steps")
+    plot_points(ax.semilogx, fw, "C2-v", label="Tsit5 fixed, largest 5 % step: steps")
     ax.set_ylim(bottom=0)
     ax.set_xlabel("roller/tooth onset width [m]")
     ax.set_ylabel("steps over the horizon")
     ax4 = ax.twinx()
     ax4.semilogx(w, [r["adaptive"]["wall_s"] for r in wr], "C0:", marker=".", label="wall")
     fw = [(r["value"], r["fixed_at_accurate"]["wall_s"]) for r in wr if "fixed_at_accurate" in r]
-    if fw:
-        ax4.semilogx(*zip(*fw, strict=True), "C2:", marker=".")
+    plot_points(ax4.semilogx, fw, "C2:", marker=".")
     ax4.set_ylim(bottom=0)
     ax4.set_ylabel("wall time, min of repeats [s] (dotted; shared CPU)")
     ax.set_title("cost against the width")
@@ -711,8 +620,7 @@ def chart(results, path=None):
         ("largest_accurate_dt", "C2-v", "largest accurate (peak within 5 %)"),
     ):
         pts = [(r["value"], r["fixed_search"][key] * 1e6) for r in wr if r["fixed_search"][key]]
-        if pts:
-            ax.semilogx(*zip(*pts, strict=True), style, label=label)
+        plot_points(ax.semilogx, pts, style, label=label)
     ax.set_ylim(bottom=0)
     ax.set_xlabel("roller/tooth onset width [m]")
     ax.set_ylabel("fixed Tsit5 step [µs]")

@@ -1,45 +1,13 @@
-"""The engagement scene in NumPy + SciPy ``solve_ivp``, against jaxchain, at matched error.
+"""The engagement scene in NumPy + SciPy ``solve_ivp``, against jaxchain, at matched error:
+:class:`NumpyField` is a hand port of ``jc.vector_field`` for lumped scenes (checked against
+it by ``tests/test_scipy_port.py``); each method's wall time is read off its error–time curve.
 
     python -m benchmarks.scipy_engagement            # full comparison
     python -m benchmarks.scipy_engagement --quick    # < 5 min on 2 shared cores
 
 Writes ``benchmarks/results/scipy_engagement.json`` and ``scipy_engagement.png``.
 
-:class:`NumpyField` is a hand port of ``jc.vector_field`` for lumped scenes (elastic
-links, anchors, roller/tooth contact on each sprocket through the gap geometry of
-``jc.gap_contact``, Johnson's roller law, optional Coulomb friction), vectorized over
-rollers *and* over a batch of states (so SciPy's Jacobian approximation may evaluate all
-its columns in one call: ``vectorized=True``). ``tests/test_scipy_port.py`` checks it
-against jaxchain's field to 1e-9.
-
-Both sides solve the same scene over the same horizon (2 tooth periods, 1.25 with
-``--quick``: both contain the first meshing impact, the largest force). The headline error
-measure is the same on both sides: the relative error of the peak roller/tooth force,
-each accepted step's top read the same way (what :attr:`jaxchain.Solution.peak_contact_force`
-reports: per roller, samples at quarter steps on the dense output, the largest top of the
-parabolas through consecutive triples; for SciPy the force is evaluated at ``sol.t`` and,
-from its dense output, at the quarter steps, inside the timed region), against
-the continuous peak of a Dopri8 reference at rtol 1e-11 (1e-10 with ``--quick``; see
-:func:`benchmarks.work_precision.dense_peak`; shown converged against 10× looser). Beside
-it, the max abs error of the roller positions at t1, which is free of the peak's
-sampling. The peak error of either side at ≲ 0.1 % depends on where the steps fall on the
-impact: a round-off-level change of the initial state moved LSODA's time at 0.1 % from
-6.65 s to 3.78 s between two runs (rtol 1e-3: 0.95 % → 0.053 % error); read both peak
-levels and both position levels together. Each method's wall time at a given error is
-read off its error–time curve (log–log interpolation of the *reliable* error: the
-largest error of that run and of every more expensive one), so methods are compared at
-the same error, never at the same nominal tolerance (SciPy measures the error in an RMS
-norm, jaxchain in the max norm).
-Wall times are the minimum over repeats, by one rule on both sides: at least 3 (SciPy: 2
-or 1 for runs over a quarter or half of the budget) and more until the repeats add up to
-``MIN_TIME_S`` (2 s; at most 15). SciPy's runs take ≥ 2.8 s, so 3 as before; jaxchain's
-0.1–1 s runs get 3–15 (after a warm-up call): with 3, a single 50 ms burst of the shared
-machine could decide the time of a 0.1 s run (measured 128–273 ms over 30 identical
-runs). jaxchain's compile time is excluded and reported apart.
-
-SciPy is given its best footing: Radau (and BDF) get ``vectorized=True`` (a Jacobian in
-one batched call), LSODA a ``jac`` built from one batched call (it would otherwise call
-the field 128 times per Jacobian).
+Notes: benchmarks/scipy_engagement.md
 """
 
 from __future__ import annotations
@@ -55,9 +23,9 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import (  # noqa: E402  # noqa: E402
+from benchmarks.common import (  # noqa: E402
     finish,
-    machine_info,  # noqa: E402
+    machine_info,
     more_repeats,
     parse,
     parser,
@@ -111,6 +79,11 @@ def _unit(x, y, fx, fy):
     pos = sq > 0
     inv = np.where(pos, 1.0 / np.sqrt(np.where(pos, sq, 1.0)), 0.0)
     return np.where(pos, x * inv, fx), np.where(pos, y * inv, fy)
+
+
+def _where3(cond, a, b):
+    """``np.where(cond, x, y)`` of each x in the triple ``a`` and y in ``b``."""
+    return tuple(np.where(cond, x, y) for x, y in zip(a, b, strict=True))
 
 
 def _johnson_s(y):
@@ -240,27 +213,16 @@ class _Gap:
         v1, n1x, n1y = oriented(g_seat, nsx, nsy)
         v2, n2x, n2y = oriented(g_flank, nfx, nfy)
         v3, n3x, n3y = oriented(g_tip, ntx, nty)
-        v1, n1x, n1y = (
-            np.where(seat_in, v1, s * ej),
-            np.where(seat_in, n1x, s * njx),
-            np.where(seat_in, n1y, s * njy),
-        )
-        end_j = ej <= ek
-        v2 = np.where(flank_in, v2, s * np.where(end_j, ej, ek))
-        n2x = np.where(flank_in, n2x, s * np.where(end_j, njx, nkx))
-        n2y = np.where(flank_in, n2y, s * np.where(end_j, njy, nky))
-        v3, n3x, n3y = (
-            np.where(tip_in, v3, s * ek),
-            np.where(tip_in, n3x, s * nkx),
-            np.where(tip_in, n3y, s * nky),
-        )
+        v1, n1x, n1y = _where3(seat_in, (v1, n1x, n1y), (s * ej, s * njx, s * njy))
+        nearer_end = _where3(ej <= ek, (ej, njx, njy), (ek, nkx, nky))
+        v2, n2x, n2y = _where3(flank_in, (v2, n2x, n2y), tuple(s * e for e in nearer_end))
+        v3, n3x, n3y = _where3(tip_in, (v3, n3x, n3y), (s * ek, s * nkx, s * nky))
         # nearest of the three (first on ties, as jnp.argmin)
         a1, a2, a3 = np.abs(v1), np.abs(v2), np.abs(v3)
         pick1 = (a1 <= a2) & (a1 <= a3)
         pick2 = ~pick1 & (a2 <= a3)
-        sd = np.where(pick1, v1, np.where(pick2, v2, v3))
-        nx = np.where(pick1, n1x, np.where(pick2, n2x, n3x))
-        ny = np.where(pick1, n1y, np.where(pick2, n2y, n3y)) * flip
+        sd, nx, ny = _where3(pick1, (v1, n1x, n1y), _where3(pick2, (v2, n2x, n2y), (v3, n3x, n3y)))
+        ny = ny * flip
         return sd, ca * nx - sa * ny, sa * nx + ca * ny
 
     def contact(self, px, py):
@@ -716,26 +678,14 @@ def main(argv=None):
     ref = reference(scene, t1, rtol=1e-10 if quick else 1e-11)
     results["reference"] = {k: v for k, v in ref.items() if k != "q1"}
     rows = []
+    kw = dict(repeats=repeats, budget_s=budget / 4, max_steps=400_000, min_time_s=MIN_TIME_S)
     print("jaxchain (diffrax):")
     for name, rtols in jax_plan.items():
-        for r in sweep(
-            scene,
-            t1,
-            ref,
-            name,
-            rtols,
-            repeats=repeats,
-            budget_s=budget / 4,
-            max_steps=400_000,
-            min_time_s=MIN_TIME_S,
-        ):
-            r["side"] = "jaxchain"
-            rows.append(r)
+        rows += [r | {"side": "jaxchain"} for r in sweep(scene, t1, ref, name, rtols, **kw)]
     print("SciPy solve_ivp on the NumPy port:")
     for method, rtols in sp_plan.items():
-        for r in scipy_sweep(field, y0, t1, ref, method, rtols, budget_s=budget):
-            r["side"] = "scipy"
-            rows.append(r)
+        sp = scipy_sweep(field, y0, t1, ref, method, rtols, budget_s=budget)
+        rows += [r | {"side": "scipy"} for r in sp]
     results["rows"] = rows
     jax_rows = [r for r in rows if r["side"] == "jaxchain"]
     sp_rows = [r for r in rows if r["side"] == "scipy"]

@@ -1,4 +1,7 @@
-"""Stability of fixed-step solvers against stiffness, and gradients against horizon.
+"""Stability of fixed-step solvers against stiffness, and gradients against horizon: the
+measured fixed-step boundary of Euler, Heun and Tsit5 on the stiffness-scaled engagement
+against the bounds the linearization predicts, and the soft peak's gradient in the tooth
+profile's coordinates against the horizon.
 
     python -m benchmarks.stability            # full study (~16 min on 2 busy cores)
     python -m benchmarks.stability --quick    # map only, 3 scales, 1 tooth period (2-3 min)
@@ -6,41 +9,7 @@
 
 Writes ``benchmarks/results/stability.json`` and ``stability.png``.
 
-**Stability map.** The settled engagement scene (08B, z = 18, 1000 rpm, 1000 N) with every
-elastic element scaled by ``s``: the roller/tooth law's modulus (Johnson: force ∝ E* at a
-given depth, so its tangent stiffness scales by exactly ``s``), the link springs and the
-span anchors (stiffness × s, damping × √s: same damping ratio); each scaled scene is
-settled again. For each explicit method (diffrax Euler, Heun, Tsit5) and scale, fixed-step
-solves over ``horizon`` tooth periods are judged twice: by the library's verdict
-(``Result``) and by the truth (a peak roller force above 10× the adaptive reference at
-rtol 1e-8 is a blow-up, reported or not); the step is bisected to the boundary between
-successful-and-bounded and the rest. Successful solves that blew up are counted as
-``undetected``. An implicit solver (Kvaerno3) is tried at fixed steps above the bound.
-
-**Predicted bounds** from the linearization at the settled state: the eigenvalues λ of
-∂f/∂y (``jax.jacfwd`` of the vector field, masses included) and the method's stability
-function R(z) = 1 + z·bᵀ(I − zA)⁻¹𝟙 from its Butcher tableau (Euler: 1 + z):
-
-* ``rule``: β_real/ω_max, the rule of thumb (ω_max = max|λ|; β_real the real-axis limit:
-  2 for Euler and Heun, 3.51 for Tsit5);
-* ``linear``: the largest h with |R(hλ)| ≤ 1 for every mode;
-* ``horizon``: the largest h with |R(hλ)|^(H/h) ≤ G for every mode, G = 1e8: growth over
-  the simulated horizon H from a contact-deflection-sized disturbance (~1e-6 m) to the
-  library's blow-up threshold. Lightly damped slow modes (|R| barely above 1) cannot
-  grow that much in H, so they do not limit a finite solve;
-* ``horizon_bilateral``: the same over the modes whose elastic energy lies mostly
-  (> 50 %) in the bilateral springs (links, anchors): a mode living in a unilateral
-  roller/tooth contact can let go and rattle instead of blowing up.
-
-The cheap estimate √(k_max/m_min) (stiffest link or contact tangent stiffness at the
-settled loads, lightest body) is printed next to ω_max = max|λ|.
-
-**Gradient against horizon.** ∂P/∂u of the library's smooth peak
-(:func:`jaxchain.design.soft_peak_force`, fixed-step Tsit5, dt = 4 µs, window = the last
-tooth period of the horizon) with respect to the four tooth-profile coordinates u of
-:class:`jaxchain.design.DesignSpace` (ISO 606 box, at the mid form), for horizons of
-1, 2, 4, 8 tooth periods; in the full run each is checked against central finite
-differences.
+Notes: benchmarks/stability.md
 """
 
 from __future__ import annotations
@@ -65,13 +34,20 @@ import optimistix as optx  # noqa: E402
 from jax.flatten_util import ravel_pytree  # noqa: E402
 
 import jaxchain as jc  # noqa: E402
-from benchmarks.common import FRICTIONLESS, modelled, parse, parser  # noqa: E402
+from benchmarks.common import parse, parser, tooth_period  # noqa: E402
+from benchmarks.precision import (  # noqa: E402
+    engagement_scene,
+    fixed_solve,
+    log_bisect,
+    plot_points,
+    step_runs,
+)
 
-GROWTH = 1e8  # amplification over the horizon counted as divergence (see module doc)
+GROWTH = 1e8  # amplification over the horizon counted as divergence (see the notes)
 BLOWUP = 10.0  # a "successful" solve whose peak force exceeds 10× the reference blew up
 LOWEST = 6  # the map's grid reaches down to 2^(-LOWEST/2) × the predicted bound
 RPM, TEETH, TENSION = 1000.0, 18, 1000.0
-PERIOD = 60.0 / RPM / TEETH  # tooth period [s]
+PERIOD = tooth_period(TEETH, RPM)  # [s]
 METHODS = ("Euler", "Heun", "Tsit5")
 
 
@@ -139,21 +115,6 @@ def predicted_step(solver, eigs, horizon=None, growth=GROWTH, h_lo=1e-12, h_hi=1
 
 
 # ----------------------------------------------------------------------- scenes
-def base_scene(n_entry: int) -> jc.Scene:
-    """The engagement scene from its layout (settled by :func:`stiffened`)."""
-    return jc.scenes.engagement(
-        "08B",
-        TEETH,
-        **modelled(
-            speed_rpm=RPM,
-            tension=TENSION,
-            n_entry=n_entry,
-            **FRICTIONLESS,
-            model=jc.scenes.ChainModel(settle=False),
-        ),
-    )
-
-
 def limiting_modes(solver, eigs, contact_frac, horizon, n=4):
     """The n modes with the smallest horizon bound: bound [s], |λ| [rad/s], damping ratio
     ζ and contact fraction of each."""
@@ -273,16 +234,7 @@ def stiffest_element(scene: jc.Scene) -> dict:
 def fixed_run(scene, solver, h, horizon, max_steps, ref_peak):
     """One fixed-step solve, judged twice: by the library (``Result``) and by the truth
     (a peak roller/tooth force above ``BLOWUP`` × the reference peak is a blow-up)."""
-    sol = jc.simulate(
-        scene,
-        horizon,
-        solver=solver,
-        stepsize_controller=diffrax.ConstantStepSize(),
-        dt0=h,
-        max_steps=max_steps,
-        n_save=41,
-        throw=False,
-    )
+    sol = fixed_solve(scene, horizon, h, solver=solver, max_steps=max_steps, n_save=41)
     peak = float(sol.peak_contact_force)
     outs = [np.asarray(x) for x in (sol.roller_position, sol.roller_sprocket_force)]
     finite = bool(all(np.all(np.isfinite(x)) for x in outs)) and math.isfinite(peak)
@@ -310,14 +262,7 @@ def boundary(scene, solver, h_guess, horizon, max_steps, span, n_bisect, ref_pea
     """Runs on a geometric grid h_guess·2^(k/2), |k| ≤ span, widened until it holds a
     stable and a divergent step, then ``n_bisect`` log-bisections between the largest
     stable step below the smallest divergent one and that step."""
-    runs = {}
-
-    def at(h):
-        h = float(h)
-        if h not in runs:
-            runs[h] = fixed_run(scene, solver, h, horizon, max_steps, ref_peak)
-        return runs[h]
-
+    runs, at = step_runs(lambda h: fixed_run(scene, solver, h, horizon, max_steps, ref_peak))
     ks = list(range(-span, span + 1))
     for k in ks:
         at(h_guess * 2 ** (k / 2))
@@ -335,18 +280,15 @@ def boundary(scene, solver, h_guess, horizon, max_steps, span, n_bisect, ref_pea
     below = [h for h, r in runs.items() if r["stable"] and h < h_div]
     if not below:
         return None, h_div, runs
-    h_ok = max(below)
-    for _ in range(n_bisect):
-        mid = math.sqrt(h_ok * h_div)
-        if at(mid)["stable"]:
-            h_ok = mid
-        else:
-            h_div = mid
+    h_ok, h_div = log_bisect(lambda h: at(h)["stable"], max(below), h_div, n_bisect)
     return h_ok, h_div, runs
 
 
 def stability_map(scales, methods, horizon_periods, n_entry, span, n_bisect):
-    base = base_scene(n_entry)
+    # the engagement from its layout, settled by stiffened()
+    base = engagement_scene(
+        tension=TENSION, n_entry=n_entry, model=jc.scenes.ChainModel(settle=False)
+    )
     horizon = horizon_periods * PERIOD
     solvers = {m: getattr(diffrax, m)() for m in methods}
     beta = {
@@ -686,8 +628,7 @@ def chart(results, path=None):
         ax.plot(s, pred["horizon"], "-", color="tab:blue", label="growth ≤ 1e8 over horizon")
         ax.plot(s, pred["horizon_bilateral"], "-.", color="tab:cyan", label="same, bilateral modes")
         meas = [(r["scale"], r["measured_dt"]) for r in mr if r["measured_dt"]]
-        if meas:
-            ax.plot(*zip(*meas, strict=True), "s-", color="k", ms=4, lw=1, label="measured")
+        plot_points(ax.plot, meas, "s-", color="k", ms=4, lw=1, label="measured")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xticks(s, [f"{v:g}" for v in s])

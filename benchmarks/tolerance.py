@@ -1,83 +1,36 @@
 """Manufacturing tolerance: does the optimized tooth keep its advantage when every gap is
-cut with scatter?
+cut with scatter? Sampled sprockets of the ISO minimum form and the main job's design,
+every gap with its own offsets of ±δ, re-measured at the worst operating point.
 
     python -m benchmarks.tolerance                      # full study (see --help)
     python -m benchmarks.tolerance --processes 16       # the same, 16 solves at a time
     python -m benchmarks.tolerance --quick              # smoke run (6 re-measurements)
+    (also --deltas, --samples, --points worst|all, --seed)
 
-Writes ``benchmarks/results/tolerance.json`` and ``tolerance.png``. Each job is one
-re-measurement (``optimize.problem.remeasure``: Dopri8, rtol 1e-9, the nominal Johnson
-law, the sharp peak of the roller/tooth force in the objective's window) of one sampled
-sprocket at one operating point, in a process of its own (single-threaded XLA), so
-``--processes`` spreads the study over the cores of a machine. Finished jobs are kept in
-``<out>/tolerance.partial.json`` (written atomically after every job); a run reuses the
-finished jobs of that file and of ``<out>/tolerance.json`` when their seed and model
-settings match, so a study cut off by a time limit is finished by running the same
-command again with that file in ``--out``, and more samples or δs re-measure only the new
-jobs.
+Writes ``benchmarks/results/tolerance.json`` and ``tolerance.png`` (finished jobs kept in
+``tolerance.partial.json`` meanwhile: the same command resumes a run cut off).
 
-Problem: the main job's default ("gentle") problem, ``make_problem(Settings())``: 08B
-chain, an 18-tooth driver in the engagement scene, 1000 N entry tension. Operating points
-(``--points``): ``worst`` (default) re-measures the operating point where both nominal
-designs have their worst peak, 1.5 × 1000 rpm with 2 % chain wear; ``all`` the six points
-of the main job (0.5/1.0/1.5 × 1000 rpm, wear 0/2 %), a sample's value then the worst
-over them.
-
-Designs, both free-form profiles with two arcs per flank (one compiled program):
-
-* ``iso_min``: the ISO 606 minimum tooth-gap form (its own tip diameter), each flank one
-  arc of radius re split in two;
-* ``optimized``: ``problem.space.profile(u)`` with ``u`` from
-  ``benchmarks/results/optimize_noclip/results.json`` (the main job's design of its
-  2026-11-24 run, the one the committed results were measured on).
-
-Scatter model: tooth gap k of a sampled sprocket (k = 0 … 17) gets independent offsets
-``δ·u`` with ``u`` uniform in [−1, 1], one per gap and parameter, each offset alone
-moving the outline by up to about δ (the results' ``outline_deviation_um``):
-
-* seating radius ri: ±δ (the seat bottom moves radially by δ);
-* each side's seat angle: ±δ / (d1/2) (the seat/flank junction moves along the seat
-  by about δ, d1/2 = 4.255 mm; the flank swings with it, its far end by up to 1.4·δ);
-* each side's flank radius (every arc of that side the same offset): ±80·δ. The ISO
-  minimum flank (re = 34.3 mm) runs about L = 5.4 mm from the seat to the tip circle; a
-  radius change Δre moves its far end by Δre·L²/(2·re²) ≈ Δre/80 normal to the flank
-  (the junction stays put, tangent to the seat);
-* angular position (pitch error): ±δ / R (the gap's seat centre moves by δ along the
-  pitch circle, R = 36.57 mm), the profile's per-gap ``phase``.
-
-The tip diameter and the seat centre's radial position stay nominal. Common random
-numbers: sample i draws the same ``u`` (seed ``--seed``, then i) for both designs and
-every δ, so the two designs are compared on the same manufacturing errors and a
-sample's offsets grow in proportion to δ. A sample that is not a valid profile
-(``FreeformProfile`` refuses it) is counted as invalid with the reason; a solve that
-fails is counted as failed; neither enters the statistics.
-
-Reported per design and δ: the re-measured worst peak of every sample, its median, 90th
-percentile and maximum, and the fraction of samples where the optimized design's peak is
-below the nominal ISO minimum form's (and below the ISO sample with the same errors);
-δ = 0 reproduces the nominal values, compared with the main job's results.
+Notes: benchmarks/tolerance.md
 """
 
 from __future__ import annotations
 
-import datetime
 import functools
 import json
 import math
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
-from benchmarks.common import finish, parse, parser, single_thread_env
+from benchmarks.common import figure, finish, parse, parser, single_thread_env, write_chart
 
 DESIGNS = ("iso_min", "optimized")
 DELTAS_UM = (5.0, 10.0, 20.0)
 SAMPLES = 16
-FLANK_RADIUS_PER_DELTA = 80.0  # flank radius tolerance as a multiple of δ (docstring)
+FLANK_RADIUS_PER_DELTA = 80.0  # flank radius tolerance as a multiple of δ (the notes)
 WORST_POINT = (1.5, 0.02)  # where both nominal designs peak (main job's results)
 OPTIMIZED = Path(__file__).parent / "results" / "optimize_noclip" / "results.json"
 PARTIAL = "tolerance.partial.json"
@@ -123,7 +76,7 @@ def unit_offsets(seed: int, sample: int, teeth: int) -> np.ndarray:
 
 def scattered(base, delta: float, unit: np.ndarray):
     """``base`` (a free-form profile with scalar leaves) with every gap's parameters
-    offset by ``delta`` [m] times ``unit`` (z, 6) as the module docstring describes;
+    offset by ``delta`` [m] times ``unit`` (z, 6) as the notes describe;
     raises ``ValueError`` where the result is not a valid profile."""
     import jaxchain as jc
 
@@ -290,16 +243,11 @@ def summarize(rows: list[dict], settings: dict) -> dict:
 
 # ------------------------------------------------------------------------ chart
 def chart(results: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     s, summ = results["settings"], results["summary"]
     deltas = s["deltas_um"]
     colors = {"iso_min": "tab:blue", "optimized": "tab:orange"}
     labels = {"iso_min": "ISO 606 minimum form", "optimized": "optimized free-form"}
-    fig, ax = plt.subplots(1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [3, 2]})
+    fig, ax = figure(1, 2, figsize=(13, 4.8), gridspec_kw={"width_ratios": [3, 2]})
     rng = np.random.default_rng(0)
     for j, d in enumerate(s["designs"]):
         off = (j - 0.5) * 0.32
@@ -325,7 +273,6 @@ def chart(results: dict, path: Path) -> None:
         if nom is not None:
             ax[0].axhline(nom, color=colors[d], ls="--", lw=1, label=f"{labels[d]}, nominal")
         ax[0].plot([], [], "s", color=colors[d], alpha=0.5, label=f"{labels[d]}, sampled")
-    ax[0].set_xticks(np.arange(len(deltas)), [f"±{x:g} µm" for x in deltas])
     where = "worst over the 6 operating points" if s["point_set"] == "all" else (
         f"{s['points'][0][0]:g} × {s['speed_rpm']:g} rpm, {100 * s['points'][0][1]:g} % wear"
     )  # fmt: skip
@@ -348,23 +295,20 @@ def chart(results: dict, path: Path) -> None:
         ax[1].axhline(g0, color="tab:green", ls="--", lw=1, label=f"nominal ({g0:.1f} %)")
         ax[1].legend(fontsize=8)
     ax[1].axhline(0, color="k", lw=0.8)
-    ax[1].set_xticks(np.arange(len(deltas)), [f"±{x:g} µm" for x in deltas])
     ax[1].set(
         xlabel="tooth-form tolerance δ",
         ylabel="peak reduction, optimized vs ISO min [%]",
         title="Same manufacturing errors on both designs",
     )
     for a in ax:
+        a.set_xticks(np.arange(len(deltas)), [f"±{x:g} µm" for x in deltas])
         a.set_xlim(-0.5, len(deltas) - 0.5)
         a.grid(alpha=0.3)
-    fig.suptitle(
+    title = (
         f"{results['command']} — {results['date']}, {results['machine']['cpu_count']} cores, "
-        f"{s['samples']} samples per δ and design",
-        fontsize=9,
+        f"{s['samples']} samples per δ and design"
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    write_chart(fig, path, title, fontsize=9)
 
 
 # ------------------------------------------------------------------------ main
@@ -402,7 +346,7 @@ def _numbers(text: str, option: str) -> tuple[float, ...]:
 
 
 def main(argv=None) -> dict:
-    from benchmarks.common import machine_info, write_atomic
+    from benchmarks.common import header, write_atomic
 
     ap = parser(__doc__, "one δ (20 µm), 2 samples, the worst operating point")
     ap.add_argument("--processes", type=int, default=min(16, os.cpu_count() or 1))
@@ -415,10 +359,9 @@ def main(argv=None) -> dict:
     ap.add_argument("--points", choices=("worst", "all"), default="worst")
     ap.add_argument("--seed", type=int, default=0)
     args = parse(ap, argv)
-    if args.processes < 1:
-        raise SystemExit(f"--processes must be ≥ 1, got {args.processes}")
-    if args.samples < 1:
-        raise SystemExit(f"--samples must be ≥ 1, got {args.samples}")
+    for name in ("processes", "samples"):
+        if getattr(args, name) < 1:
+            raise SystemExit(f"--{name} must be ≥ 1, got {getattr(args, name)}")
     deltas = _numbers(args.deltas, "--deltas")
     if not all(0 < d <= 100 for d in deltas):
         raise SystemExit(f"--deltas must lie in (0, 100] µm, got {args.deltas}")
@@ -450,7 +393,7 @@ def main(argv=None) -> dict:
     jobs = [j for j in jobs if _key(*j) not in kept]
     print(f"{len(jobs)} re-measurements to run ({len(rows)} kept from earlier runs), "
           f"{args.processes} at a time")  # fmt: skip
-    machine = machine_info()
+    head = header("tolerance", argv or None)  # the command, the date, the machine
     start = time.perf_counter()
     single_thread_env()
     import multiprocessing as mp
@@ -468,9 +411,7 @@ def main(argv=None) -> dict:
                   f"at {row['speed_factor']:g}×/{row['wear']:g}: {peak}", flush=True)  # fmt: skip
     main_job = json.loads(OPTIMIZED.read_text())["summary"]
     results = {
-        "command": " ".join(["python -m benchmarks.tolerance", *(argv or sys.argv[1:])]),
-        "date": datetime.date.today().isoformat(),
-        "machine": machine,
+        **head,
         "settings": settings | {"processes": args.processes},
         "main_job": {
             "iso_min_N": main_job["baseline_value"],
