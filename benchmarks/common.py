@@ -144,12 +144,7 @@ def jsonable(x):
 def save_chart(fig, results: dict, path: Path, rect=(0, 0, 1, 1)) -> None:
     """Title ``fig`` with the study's command and date, lay it out inside ``rect`` (room
     left for a figure legend), write it to ``path``, close it."""
-    import matplotlib.pyplot as plt
-
-    fig.suptitle(f"{results['command']} — {results['date']}", fontsize=8)
-    fig.tight_layout(rect=rect)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    write_chart(fig, path, f"{results['command']} — {results['date']}", rect=rect, fontsize=8)
 
 
 #: The studies' scenes have frictionless chain joints (``joint_friction=None``): they
@@ -320,13 +315,13 @@ def figure(*args, **kwargs):
     return plt.subplots(*args, **kwargs)
 
 
-def write_chart(fig, path: Path, title: str | None = None, **title_kw) -> None:
+def write_chart(fig, path: Path, title: str | None = None, rect=(0, 0, 1, 1), **title_kw) -> None:
     """Title ``fig`` with ``title`` (if given; ``title_kw``: ``suptitle``'s keywords), lay
-    it out, write it to ``path`` at 120 dpi, close it."""
+    it out inside ``rect``, write it to ``path`` at 120 dpi, close it."""
     import matplotlib.pyplot as plt
 
     if title is not None:
         fig.suptitle(title, **title_kw)
-    fig.tight_layout()
+    fig.tight_layout(rect=rect)
     fig.savefig(path, dpi=120)
     plt.close(fig)

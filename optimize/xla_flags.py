@@ -82,14 +82,15 @@ def prune_cache(folder: Path, max_bytes: int = CACHE_SIZE) -> int:
     against 386 s without, on a 2-core CPU, the slower run beside light other work.)
     Returns the bytes removed."""
     try:
-        entries = [(e.stat().st_mtime, e.stat().st_size, e) for e in folder.glob("*-cache")]
+        stats = [(e, e.stat()) for e in folder.glob("*-cache")]
     except OSError:
         return 0
-    total = sum(size for _, size, _ in entries)
-    removed = 0
+    total = sum(st.st_size for _, st in stats)
     if total <= max_bytes:
         return 0
-    for _, size, entry in sorted(entries, key=lambda e: e[0]):
+    removed = 0
+    for entry, st in sorted(stats, key=lambda e: e[1].st_mtime):
+        size = st.st_size
         if total - removed <= 0.75 * max_bytes:
             break
         try:
